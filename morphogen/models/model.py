@@ -1,0 +1,175 @@
+"""The Model: species, parameters, reaction terms and diffusion coefficients.
+
+A reaction-diffusion model is the system (Skaggs eq. 2.2; Yamamoto eq. 1)
+
+.. math::
+
+    \\partial_t u_i = R_i(u, p, x, t) + \\nabla\\cdot(D_i(p, x) \\nabla u_i),\\qquad i = 1..S
+
+A :class:`Model` holds the pointwise part ``R`` and the coefficients ``D``; the domain (a grid or
+a mesh) supplies the diffusion operator. Parameters are a runtime pytree (a dict of arrays), never
+compile-time constants, so one compiled program serves a whole batch of parameter sets and
+``jax.grad`` flows through them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import jax.numpy as jnp
+import numpy as np
+
+from morphogen.errors import MorphogenError
+
+Array = Any
+Params = Mapping[str, Array]
+Coords = Mapping[str, Array]
+"""Position and time: ``x``, ``y``, ``z`` (arrays broadcastable to the spatial shape) and ``t``."""
+
+
+class Tensor(NamedTuple):
+    """A symmetric 2D diffusion tensor field ``[[xx, xy], [xy, yy]]`` (each scalar or field)."""
+
+    xx: Array
+    xy: Array
+    yy: Array
+
+
+Reaction = Callable[[Array, Params, Coords], Array]
+"""``reaction(u, p, c)``: ``u`` has shape ``(S, *spatial)``; returns the same shape."""
+
+Diffusion = Callable[[Params, Coords], tuple]
+"""``diffusion(p, c)``: one coefficient per species (scalar, field, or :class:`Tensor`)."""
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """A reaction-diffusion model.
+
+    Attributes:
+        name: kebab-case name (the command-line name for library models).
+        species: species names, in state order; ``u`` arrays have shape ``(S, *spatial)``.
+        params: default parameter values (floats), which form a pattern.
+        reaction: pointwise reaction terms ``R(u, p, c) -> (S, *spatial)``.
+        diffusion: per-species diffusion coefficients ``D(p, c)``.
+        ground: the unperturbed state ``ground(p) -> S floats`` (a homogeneous steady state);
+            initial conditions perturb it.
+        excited: the perturbation values ``excited(p) -> S floats`` used by seeded initial
+            conditions (squares, blobs, seed points).
+        display: the species shown in images by default.
+        presets: named parameter sets (partial; the rest come from ``params``).
+        description: one line for ``morphogen models``.
+        reference: the seed equation(s) it implements.
+        source: the model file text, for models parsed from a file (so runs can be reproduced).
+    """
+
+    name: str
+    species: tuple[str, ...]
+    params: Mapping[str, float]
+    reaction: Reaction
+    diffusion: Diffusion
+    ground: Callable[[Params], tuple[float, ...]] | None = None
+    excited: Callable[[Params], tuple[float, ...]] | None = None
+    display: str | None = None
+    presets: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    description: str = ""
+    reference: str = ""
+    source: str | None = None
+
+    def __post_init__(self) -> None:
+        if not self.species:
+            raise MorphogenError(f"model {self.name!r} has no species")
+        if len(set(self.species)) != len(self.species):
+            raise MorphogenError(f"model {self.name!r} repeats a species name: {self.species}")
+        clash = set(self.species) & set(self.params)
+        if clash:
+            raise MorphogenError(
+                f"model {self.name!r}: {sorted(clash)} used both as species and parameter"
+            )
+        if self.display is not None and self.display not in self.species:
+            raise MorphogenError(f"model {self.name!r}: display species {self.display!r} unknown")
+
+    @property
+    def display_species(self) -> str:
+        """The species rendered by default (the last one unless set)."""
+        return self.display or self.species[-1]
+
+    def species_index(self, name: str) -> int:
+        """Index of species ``name`` in the state, or a clear error."""
+        if name not in self.species:
+            raise MorphogenError(
+                f"unknown species {name!r} for model {self.name}; species are "
+                + ", ".join(self.species)
+            )
+        return self.species.index(name)
+
+    def parameters(
+        self, overrides: Mapping[str, Any] | None = None, *, preset: str | None = None
+    ) -> dict[str, Any]:
+        """Default parameters, updated by a preset and then by ``overrides``.
+
+        Raises:
+            MorphogenError: for an unknown preset or parameter name.
+        """
+        out: dict[str, Any] = dict(self.params)
+        if preset is not None:
+            if preset not in self.presets:
+                known = ", ".join(sorted(self.presets)) or "none"
+                raise MorphogenError(
+                    f"unknown preset {preset!r} for model {self.name}; presets: {known}"
+                )
+            out.update(self.presets[preset])
+        for key, value in (overrides or {}).items():
+            if key not in self.params:
+                raise MorphogenError(
+                    f"unknown parameter {key!r} for model {self.name}; parameters are "
+                    + ", ".join(self.params)
+                )
+            out[key] = value
+        return out
+
+    def ground_state(self, params: Params) -> np.ndarray:
+        """The unperturbed homogeneous state, shape ``(S,)``.
+
+        Uses ``ground`` when given, otherwise a damped Newton iteration on ``R(u) = 0`` for
+        spatially constant parameters, starting from ones.
+        """
+        scalar = {k: _scalar(v) for k, v in params.items()}
+        if self.ground is not None:
+            return np.asarray(self.ground(scalar), dtype=np.float64)
+        return _newton_steady_state(self, scalar)
+
+    def excited_state(self, params: Params) -> np.ndarray:
+        """Values used inside seeded perturbations, shape ``(S,)``."""
+        scalar = {k: _scalar(v) for k, v in params.items()}
+        if self.excited is not None:
+            return np.asarray(self.excited(scalar), dtype=np.float64)
+        g = self.ground_state(scalar)
+        return g + 0.5 * np.maximum(np.abs(g), 0.1)
+
+
+def _scalar(value: Any) -> float:
+    """A parameter's spatial mean: homogeneous states use the mean of a parameter field."""
+    return float(np.mean(np.asarray(value, dtype=np.float64)))
+
+
+def _newton_steady_state(model: Model, params: Params) -> np.ndarray:
+    import jax
+
+    coords = {"x": 0.5, "y": 0.5, "z": 0.5, "t": 0.0}
+    p = {k: jnp.asarray(v, jnp.float32) for k, v in params.items()}
+
+    def f(u):
+        return model.reaction(u.reshape(-1, 1), p, coords).reshape(-1)
+
+    u = jnp.ones(len(model.species), jnp.float32)
+    jac = jax.jacfwd(f)
+    for _ in range(60):
+        step = jnp.linalg.lstsq(jac(u), f(u))[0]
+        u = u - 0.7 * step
+    u = np.asarray(u, dtype=np.float64)
+    if not np.all(np.isfinite(u)):
+        return np.ones(len(model.species))
+    return u
