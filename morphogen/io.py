@@ -1,0 +1,75 @@
+"""Files written atomically: nothing half-written is ever left behind.
+
+Every writer here writes to a temporary file in the destination directory and renames it into
+place (``os.replace``), so a crash leaves either the old file or the new one.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Callable, Mapping
+from contextlib import contextmanager
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from morphogen.errors import MorphogenError
+
+
+def ensure_writable_dir(path: str | Path) -> Path:
+    """Create ``path`` if needed and check it is a writable directory (clear error if not)."""
+    p = Path(path)
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise MorphogenError(f"cannot create output directory {p}: {exc.strerror}") from None
+    if not p.is_dir() or not os.access(p, os.W_OK):
+        raise MorphogenError(f"output directory {p} is not writable; choose another with --out")
+    return p
+
+
+@contextmanager
+def atomic_open(path: str | Path, mode: str = "wb"):
+    """Open a temporary file next to ``path``; on success rename it to ``path``."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, mode) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_atomic(path: str | Path, writer: Callable[[IO[bytes]], Any]) -> Path:
+    """Call ``writer(fileobj)`` on a temporary file, then rename it to ``path``."""
+    with atomic_open(path, "wb") as fh:
+        writer(fh)
+    return Path(path)
+
+
+def write_json(path: str | Path, data: Any) -> Path:
+    """Write ``data`` as indented JSON, atomically."""
+    text = json.dumps(data, indent=2, sort_keys=False, default=_json_default) + "\n"
+    return write_atomic(path, lambda fh: fh.write(text.encode()))
+
+
+def write_npz(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
+    """Write named arrays to an ``.npz`` file, atomically."""
+    return write_atomic(path, lambda fh: np.savez_compressed(fh, **arrays))
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"cannot serialise {type(obj).__name__} to JSON")
