@@ -1,0 +1,1 @@
+"""Search for model parameters: strategies (GA, CMA-ES), fitness functions, run archive."""
