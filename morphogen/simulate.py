@@ -100,7 +100,7 @@ def simulate(
     dt: float,
     scheme: str = "euler",
     noise: Noise | None = None,
-    clamp: tuple[float, float] | None = None,
+    clamp: tuple[float, float] | None | str = "model",
     seed: int = 0,
     every: int | None = None,
     max_snapshots: int = 240,
@@ -111,6 +111,8 @@ def simulate(
 
     Args:
         params: parameter values (scalars or fields broadcastable to the spatial shape).
+        clamp: bounds applied after every step: ``"model"`` (default) uses ``model.clamp``
+            (``None`` for most models), ``None`` none, or ``(lo, hi)``.
         every: take a snapshot every ``every`` steps (and of the initial state); memory stays
             bounded by ``max_snapshots`` (older snapshots are thinned to every other one).
         unsafe: skip the explicit stability check.
@@ -136,7 +138,7 @@ def simulate_batch(
     dt: float,
     scheme: str = "euler",
     noise: Noise | None = None,
-    clamp: tuple[float, float] | None = None,
+    clamp: tuple[float, float] | None | str = "model",
     seed: int = 0,
     every: int | None = None,
     max_snapshots: int = 240,
@@ -175,6 +177,8 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
     p = {k: jnp.asarray(v, dtype) for k, v in params.items()}
     if not unsafe:
         check_stability(model, domain, p, dt, scheme)
+    if isinstance(clamp, str):
+        clamp = model.clamp
     step = _cached_step(model, domain, scheme, noise, tuple(clamp) if clamp else None)
     run = _compiled(step, batched)
     key = jax.random.PRNGKey(seed)

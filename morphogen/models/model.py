@@ -63,6 +63,11 @@ class Model:
         description: one line for ``morphogen models``.
         reference: the seed equation(s) it implements.
         source: the model file text, for models parsed from a file (so runs can be reproduced).
+        dt: suggested time step (stable on a unit grid with the default parameters).
+        t_end: suggested simulated time for the default parameters to form their pattern.
+        init: suggested initial condition kind (see :mod:`morphogen.initial`).
+        clamp: physical bounds the model itself declares (e.g. non-negative concentrations
+            in Turk's formulation of Turing's model); used unless the caller overrides it.
     """
 
     name: str
@@ -77,6 +82,10 @@ class Model:
     description: str = ""
     reference: str = ""
     source: str | None = None
+    dt: float = 1.0
+    t_end: float = 1000.0
+    init: str = "noise"
+    clamp: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         if not self.species:

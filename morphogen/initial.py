@@ -1,0 +1,192 @@
+"""Initial conditions: seeded, reproducible states of shape ``(S, *spatial)``.
+
+Every kind starts from the model's ground state ``g`` (its homogeneous steady state) and, where it
+perturbs, moves towards the model's excited values ``e``. Kinds (:data:`INITIAL_KINDS`):
+
+- ``uniform``: exactly ``g`` (no perturbation: a Turing-stable model stays uniform).
+- ``noise``: ``g + amplitude * max(|g|, 0.1) * U(-1, 1)`` per cell (uniform with noise).
+- ``square``: ``e`` inside a centred square of side ``size`` (fraction of each axis), ``g``
+  outside (Richard et al. §IV.4.2 and §5.2.1).
+- ``blobs``: ``count`` Gaussian blobs of width ``radius`` at random places, blending ``g`` to
+  ``e`` (Richard et al. §III.2.1; Mordvintsev et al.'s seed states).
+- ``skaggs``: Skaggs eqs. 3.3-3.4 on the unit square centred at the origin (two species):
+  ``u0 = 1 - exp(-80((x+0.05)^2 + (y+0.05)^2))``, ``v0 = exp(-80((x-0.05)^2 + (y-0.05)^2))``.
+- ``seeds``: ``count`` random cells (or mesh vertices) where ``species`` takes
+  ``g + U(0, 1) (e - g)``; elsewhere ``g`` (Ringham et al. §4.9, *Phalaenopsis*: 5 000 seeds
+  on about 88 000 vertices, so the default count is 5.7 % of the cells).
+- ``image``: a picture's grey level ``I`` in [0, 1] gives ``g + I (e - g)`` (2D grids).
+- ``npz``: one array per species, by species name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from morphogen.errors import MorphogenError
+from morphogen.models.model import Model, Params
+
+Init = Callable[..., np.ndarray]
+INITIAL_KINDS: dict[str, Init] = {}
+"""Initial-condition builders by name: ``f(model, domain, g, e, rng, **opts) -> state``."""
+
+
+def _kind(name: str) -> Callable[[Init], Init]:
+    def add(fn: Init) -> Init:
+        INITIAL_KINDS[name] = fn
+        return fn
+
+    return add
+
+
+def make_initial(
+    kind: str, model: Model, domain: Any, params: Params, *, seed: int = 0, **opts: Any
+) -> np.ndarray:
+    """Build an initial state (float32, shape ``(S, *domain.spatial_shape)``).
+
+    ``kind`` is a name from :data:`INITIAL_KINDS`, or a path to a ``.npz`` file or an image.
+    Options are those of the kind (``amplitude``, ``size``, ``count``, ``radius``, ``species``,
+    ``path``); unknown options are an error.
+    """
+    if kind not in INITIAL_KINDS:
+        path = Path(kind)
+        if path.suffix.lower() == ".npz":
+            kind, opts = "npz", {**opts, "path": path}
+        elif path.suffix.lower() in (".png", ".jpg", ".jpeg", ".bmp", ".gif", ".tif", ".tiff"):
+            kind, opts = "image", {**opts, "path": path}
+        else:
+            raise MorphogenError(
+                f"unknown initial condition {kind!r}; use one of {', '.join(INITIAL_KINDS)} "
+                "or a .npz / image file"
+            )
+    g = model.ground_state(params)
+    e = model.excited_state(params)
+    rng = np.random.default_rng(seed)
+    try:
+        state = INITIAL_KINDS[kind](model, domain, g, e, rng, **opts)
+    except TypeError as exc:
+        raise MorphogenError(f"bad option for initial condition {kind!r}: {exc}") from None
+    return np.ascontiguousarray(state, dtype=np.float32)
+
+
+def _fill(model: Model, domain: Any, values: np.ndarray) -> np.ndarray:
+    shape = (len(model.species), *domain.spatial_shape)
+    return np.broadcast_to(np.asarray(values, np.float64).reshape(-1, *[1] * len(shape[1:])),
+                           shape).copy()
+
+
+def _blend(g: np.ndarray, e: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """``g + w (e - g)`` for every species; ``weight`` has the spatial shape."""
+    view = (-1,) + (1,) * weight.ndim
+    return g.reshape(view) + weight[None] * (e - g).reshape(view)
+
+
+def _positions(domain: Any) -> list[np.ndarray]:
+    """Coordinates in [0, 1] of every cell, broadcast to the spatial shape (x first)."""
+    names = [n for n in ("x", "y", "z") if n in domain.coords]
+    shape = domain.spatial_shape
+    return [np.broadcast_to(np.asarray(domain.coords[n], np.float64), shape) for n in names]
+
+
+@_kind("uniform")
+def _uniform(model, domain, g, e, rng):
+    return _fill(model, domain, g)
+
+
+@_kind("noise")
+def _noise(model, domain, g, e, rng, amplitude: float = 0.05):
+    u = _fill(model, domain, g)
+    scale = amplitude * np.maximum(np.abs(g), 0.1).reshape(-1, *[1] * (u.ndim - 1))
+    return u + scale * rng.uniform(-1.0, 1.0, u.shape)
+
+
+@_kind("square")
+def _square(model, domain, g, e, rng, size: float = 0.1, amplitude: float = 0.0):
+    inside = np.ones(domain.spatial_shape, bool)
+    for pos in _positions(domain)[: len(domain.spatial_shape)]:
+        inside &= np.abs(pos - 0.5) <= size / 2
+    u = _blend(g, e, inside.astype(np.float64))
+    return u + amplitude * rng.uniform(-1.0, 1.0, u.shape)
+
+
+@_kind("blobs")
+def _blobs(model, domain, g, e, rng, count: int = 12, radius: float = 0.025):
+    pos = _positions(domain)[: max(1, min(3, len(domain.spatial_shape)))]
+    weight = np.zeros(domain.spatial_shape)
+    for _ in range(int(count)):
+        centre = rng.uniform(0.0, 1.0, len(pos))
+        r2 = sum(_wrap(p - c) ** 2 for p, c in zip(pos, centre, strict=True))
+        weight = np.maximum(weight, np.exp(-r2 / (2 * radius**2)))
+    return _blend(g, e, weight)
+
+
+def _wrap(d: np.ndarray) -> np.ndarray:
+    """Shortest periodic distance on the unit interval."""
+    return d - np.round(d)
+
+
+@_kind("skaggs")
+def _skaggs(model, domain, g, e, rng):
+    if len(model.species) != 2:
+        raise MorphogenError("the skaggs initial condition (eqs. 3.3-3.4) needs two species")
+    x, y = (p - 0.5 for p in _positions(domain)[:2])
+    u0 = 1.0 - np.exp(-80.0 * ((x + 0.05) ** 2 + (y + 0.05) ** 2))
+    v0 = np.exp(-80.0 * ((x - 0.05) ** 2 + (y - 0.05) ** 2))
+    return np.stack([u0, v0])
+
+
+@_kind("seeds")
+def _seeds(model, domain, g, e, rng, count: int | None = None, species: str | None = None):
+    u = _fill(model, domain, g)
+    n_cells = int(np.prod(domain.spatial_shape))
+    count = int(count) if count is not None else max(1, round(0.057 * n_cells))
+    if not 0 < count <= n_cells:
+        raise MorphogenError(f"seed count must be between 1 and {n_cells}, got {count}")
+    i = model.species_index(species or model.display_species)
+    flat = u[i].reshape(-1)
+    where = rng.choice(n_cells, size=count, replace=False)
+    flat[where] = g[i] + rng.uniform(0.0, 1.0, count) * (e[i] - g[i])
+    u[i] = flat.reshape(domain.spatial_shape)
+    return u
+
+
+@_kind("image")
+def _image(model, domain, g, e, rng, path: str | Path = ""):
+    import imageio.v3 as iio
+
+    if len(domain.spatial_shape) != 2:
+        raise MorphogenError("an image initial condition needs a 2D grid")
+    try:
+        img = np.asarray(iio.imread(path), np.float64)
+    except (OSError, ValueError) as exc:
+        raise MorphogenError(f"cannot read image {path}: {exc}") from None
+    if img.ndim == 3:
+        img = img[..., :3].mean(axis=-1)
+    img = (img - img.min()) / max(float(np.ptp(img)), 1e-12)
+    rows = (np.arange(domain.spatial_shape[0]) * img.shape[0]) // domain.spatial_shape[0]
+    cols = (np.arange(domain.spatial_shape[1]) * img.shape[1]) // domain.spatial_shape[1]
+    return _blend(g, e, img[np.ix_(rows, cols)])
+
+
+@_kind("npz")
+def _npz(model, domain, g, e, rng, path: str | Path = ""):
+    try:
+        data = np.load(path)
+    except (OSError, ValueError) as exc:
+        raise MorphogenError(f"cannot read {path}: {exc}") from None
+    missing = [s for s in model.species if s not in data.files]
+    if missing:
+        raise MorphogenError(
+            f"{path} lacks arrays for species {missing}; it has {sorted(data.files)}"
+        )
+    arrays = [np.asarray(data[s], np.float64) for s in model.species]
+    for s, a in zip(model.species, arrays, strict=True):
+        if a.shape != tuple(domain.spatial_shape):
+            raise MorphogenError(
+                f"{path}: array {s!r} has shape {a.shape}, the domain needs "
+                f"{tuple(domain.spatial_shape)}"
+            )
+    return np.stack(arrays)

@@ -1,0 +1,550 @@
+"""Model files: reaction-diffusion equations written by hand, in TOML.
+
+A file names the species, the parameters and one equation per species, e.g.::
+
+    name = "schnakenberg"
+    species = ["u", "v"]
+    [parameters]
+    a = 0.1
+    b = 0.9
+    Du = 1.0
+    Dv = 40.0
+    [equations]
+    u = "a - u + u**2*v + Du*lap(u)"
+    v = "b - u**2*v + Dv*lap(v)"
+
+Each equation is the right-hand side of :math:`\\partial_t u_i = R_i + D_i \\nabla^2 u_i`
+(Skaggs eq. 2.2). It is split into the reaction ``R_i`` (every additive term without ``lap``) and
+the diffusion coefficient ``D_i`` (the sum of the ``coef`` of the terms ``coef*lap(u_i)``; the
+coefficient may read parameters, numbers and ``x, y, z``). Optional sections: ``description``,
+``reference``, ``display``, ``[initial]`` and ``[excited]`` (per-species values or expressions
+of the parameters), ``[presets.NAME]`` and ``[anisotropy]`` (a principal direction and two rates,
+Ringham et al. eq. 18). The text is untrusted: expressions go through the whitelist compiler of
+:mod:`morphogen.models.expr`, and every error names the file line and column. See
+``docs/equations.md``.
+"""
+
+from __future__ import annotations
+
+import ast
+import keyword
+import os
+import re
+import tomllib
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import jax.numpy as jnp
+
+from morphogen.errors import MorphogenError
+from morphogen.models.expr import (
+    FUNCTIONS,
+    Evaluator,
+    ExpressionError,
+    compile_node,
+    error_at,
+    parse,
+)
+from morphogen.models.model import Array, Model, Params, Tensor
+
+COORDINATES = ("x", "y", "z")
+RESERVED = frozenset(FUNCTIONS) | {"lap", "x", "y", "z", "t"}
+"""Names a parameter or species may not take."""
+
+KEYS = (
+    "name", "species", "description", "reference", "display",
+    "parameters", "equations", "initial", "excited", "presets", "anisotropy",
+)  # fmt: skip
+"""Top-level keys and tables of a model file."""
+
+_SUPPORTED = "write diffusion as coef*lap(s) added to the equation of species s"
+
+
+def load_model(name_or_path: str | os.PathLike) -> Model:
+    """A library model by name, or a model file.
+
+    A path ending in ``.toml`` is parsed; otherwise a library name is looked up, and an
+    existing file of that name is parsed.
+    """
+    text = os.fspath(name_or_path)
+    if text.endswith(".toml"):
+        return load_model_file(text)
+    from morphogen.models.library import LIBRARY, get_model
+
+    if text not in LIBRARY and os.path.isfile(text):
+        return load_model_file(text)
+    return get_model(text)
+
+
+def load_model_file(path: str | os.PathLike) -> Model:
+    """Read and parse a model file (see :func:`parse_model`)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise MorphogenError(f"model file {path} not found") from None
+    except UnicodeDecodeError:
+        raise MorphogenError(f"model file {path} is not UTF-8 text") from None
+    except OSError as exc:
+        raise MorphogenError(f"cannot read model file {path}: {exc.strerror}") from None
+    return parse_model(text, name=path.stem, path=path)
+
+
+def parse_model(
+    text: str, name: str | None = None, path: str | os.PathLike | None = None
+) -> Model:
+    """Build a :class:`Model` from model-file text.
+
+    Args:
+        text: the TOML text (kept as ``Model.source``).
+        name: the model name when the file has no ``name`` key.
+        path: where the text came from, used in error messages.
+
+    Raises:
+        MorphogenError: one line naming the problem, with the file line and column for errors
+            inside expressions and TOML syntax.
+    """
+    src = _Source(text, path)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise src.toml_error(exc) from None
+    unknown = sorted(set(data) - set(KEYS))
+    if unknown:
+        raise src.error(f"unknown key {unknown[0]!r}; a model file may have {', '.join(KEYS)}")
+    species = _species(data, src)
+    params = _parameters(data, src, species)
+    eqs = _table(data, "equations", src, required=True)
+    for key in eqs:
+        if key not in species:
+            raise src.error(
+                f"[equations] has an equation for {key!r}, which is not a species "
+                f"(species: {', '.join(species)})",
+                src.locate("equations", key),
+            )
+    missing = [s for s in species if s not in eqs]
+    if missing:
+        raise src.error(f"species {missing[0]!r} has no equation in [equations]")
+    reaction_names = set(params) | set(species) | set(COORDINATES) | {"t"}
+    coef_names = set(params) | set(COORDINATES)
+    reactions, coefficients = [], []
+    for s in species:
+        rx, coef = _equation(eqs[s], s, species, reaction_names, coef_names, src)
+        reactions.append(rx)
+        coefficients.append(coef)
+    tensors = _anisotropy(data, src, species, coef_names, coefficients)
+    display = data.get("display")
+    if display is not None and display not in species:
+        raise src.error(f"display = {display!r} is not a species (species: {', '.join(species)})")
+    title = data.get("name", name or (Path(path).stem if path else "model"))
+    for key in ("name", "description", "reference"):
+        if key in data and not isinstance(data[key], str):
+            raise src.error(f"{key} must be a string", src.locate(None, key))
+    return Model(
+        name=title,
+        species=species,
+        params=params,
+        reaction=_reaction(species, reactions),
+        diffusion=_diffusion(coefficients, tensors),
+        ground=_state_values(data, "initial", src, species, params),
+        excited=_state_values(data, "excited", src, species, params),
+        display=display,
+        presets=_presets(data, src, params),
+        description=data.get("description", ""),
+        reference=data.get("reference", f"model file {path}" if path else "model file"),
+        source=text,
+    )
+
+
+def _reaction(species: tuple[str, ...], terms: Sequence[Evaluator]):
+    """``R(u, p, c)``: every reaction expression, stacked to shape ``(S, *spatial)``."""
+
+    def reaction(u: Array, p: Params, c: Mapping[str, Array]) -> Array:
+        env = {**p, **c}
+        env.update((s, u[i]) for i, s in enumerate(species))
+        shape = u.shape[1:]
+        return jnp.stack([jnp.broadcast_to(jnp.asarray(f(env), u.dtype), shape) for f in terms])
+
+    return reaction
+
+
+def _diffusion(coefficients: Sequence[Evaluator | None], tensors: Mapping[int, tuple]):
+    """``D(p, c)``: a scalar or field per species, or a :class:`Tensor` for anisotropic ones."""
+
+    def diffusion(p: Params, c: Mapping[str, Array]) -> tuple:
+        env = {**p, **c}
+        out = []
+        for i, coef in enumerate(coefficients):
+            if i in tensors:
+                out.append(_tensor(*(f(env) for f in tensors[i])))
+            else:
+                out.append(0.0 if coef is None else coef(env))
+        return tuple(out)
+
+    return diffusion
+
+
+def _tensor(angle: Array, along: Array, across: Array) -> Tensor:
+    """Diffusion tensor from a principal direction and two rates (Ringham et al. eq. 18).
+
+    .. math::
+        D = \\lambda_1 e e^T + \\lambda_2 e_\\perp e_\\perp^T,\\qquad
+        e = (\\cos\\theta, \\sin\\theta),\\ e_\\perp = (-\\sin\\theta, \\cos\\theta)
+
+    with ``along`` = :math:`\\lambda_1`, ``across`` = :math:`\\lambda_2`, ``angle`` =
+    :math:`\\theta` in radians from the x axis; the flux is Ringham eq. 8.
+    """
+    cos, sin = jnp.cos(angle), jnp.sin(angle)
+    return Tensor(
+        xx=along * cos * cos + across * sin * sin,
+        xy=(along - across) * cos * sin,
+        yy=along * sin * sin + across * cos * cos,
+    )
+
+
+def _equation(value, s, species, reaction_names, coef_names, src):
+    """Compile one equation into (reaction evaluator, diffusion evaluator or None)."""
+    text = _expression_text(value, src, "equations", s, f"the equation for {s}")
+    try:
+        tree = parse(text, extra_functions={"lap": 1})
+        reaction, coefs = _split(tree, text, s, species)
+        if reaction is None:
+            rx = _zero
+        else:
+            names = "names are parameters, species, x, y, z, t"
+            rx = compile_node(reaction, text, reaction_names, what=names)
+        coef = None
+        if coefs:
+            total = coefs[0]
+            for term in coefs[1:]:
+                total = ast.copy_location(ast.BinOp(total, ast.Add(), term), term)
+            names = "diffusion coefficients may use parameters, numbers and x, y, z"
+            coef = compile_node(total, text, coef_names, what=names)
+    except ExpressionError as exc:
+        raise src.expression_error(exc, "equations", s, f"equation for {s}") from None
+    return rx, coef
+
+
+def _zero(env: Mapping[str, Array]) -> float:
+    return 0.0
+
+
+def _has_lap(node: ast.AST) -> bool:
+    return any(_is_lap(sub) for sub in ast.walk(node))
+
+
+def _is_lap(node: ast.AST) -> bool:
+    return isinstance(node, ast.Call) and node.func.id == "lap"
+
+
+def _first_lap(node: ast.AST) -> ast.Call:
+    return next(sub for sub in ast.walk(node) if _is_lap(sub))
+
+
+def _negate(node: ast.expr) -> ast.expr:
+    return ast.copy_location(ast.UnaryOp(ast.USub(), node), node)
+
+
+def _split(node, text, own, species) -> tuple[ast.expr | None, list[ast.expr]]:
+    """Split an equation into its reaction part and its diffusion coefficients.
+
+    The sum structure is walked through ``+``, ``-`` and unary minus; subtrees without ``lap``
+    are kept unchanged (so the arithmetic, and its rounding, is exactly what was written).
+    Returns ``(reaction or None, [coefficient of each coef*lap(own) term, signed])``.
+    """
+    if not _has_lap(node):
+        return node, []
+    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add | ast.Sub):
+        left, left_coefs = _split(node.left, text, own, species)
+        right, right_coefs = _split(node.right, text, own, species)
+        if isinstance(node.op, ast.Sub):
+            right_coefs = [_negate(c) for c in right_coefs]
+            if left is None and right is not None:
+                right = _negate(right)
+        if left is None or right is None:
+            reaction = left if right is None else right
+        else:
+            reaction = ast.copy_location(ast.BinOp(left, node.op, right), node)
+        return reaction, left_coefs + right_coefs
+    if isinstance(node, ast.UnaryOp):
+        inner, coefs = _split(node.operand, text, own, species)
+        if isinstance(node.op, ast.USub):
+            return (None if inner is None else _negate(inner)), [_negate(c) for c in coefs]
+        return inner, coefs
+    coef = _diffusion_term(node, text, own, species)
+    return None, [coef if coef is not None else ast.copy_location(ast.Constant(1.0), node)]
+
+
+def _diffusion_term(node, text, own, species) -> ast.expr | None:
+    """The coefficient of a ``coef*lap(own)`` term (``None`` for a bare ``lap(own)``)."""
+    if _is_lap(node):
+        arg = node.args[0]
+        if not isinstance(arg, ast.Name) or arg.id not in species:
+            raise error_at(arg, text, f"lap() takes a species name, e.g. lap({own})")
+        if arg.id != own:
+            raise error_at(
+                node, text,
+                f"lap({arg.id}) in the equation for {own}: an equation may only diffuse its own "
+                f"species; {_SUPPORTED} (cross-diffusion is not supported)",
+            )  # fmt: skip
+        return None
+    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Mult | ast.Div):
+        if _has_lap(node.right):
+            if isinstance(node.op, ast.Div) or _has_lap(node.left):
+                raise error_at(
+                    _first_lap(node.right), text,
+                    f"lap() cannot be divided by or multiplied with another lap(); {_SUPPORTED}",
+                )  # fmt: skip
+            factor, inner = node.left, _diffusion_term(node.right, text, own, species)
+        else:
+            factor, inner = node.right, _diffusion_term(node.left, text, own, species)
+        _check_coefficient(factor, text, own, species)
+        if inner is None:
+            if isinstance(node.op, ast.Mult):
+                return factor
+            inner = ast.copy_location(ast.Constant(1.0), node)
+        return ast.copy_location(ast.BinOp(inner, node.op, factor), node)
+    if isinstance(node, ast.UnaryOp):
+        inner = _diffusion_term(node.operand, text, own, species)
+        if isinstance(node.op, ast.UAdd):
+            return inner
+        return _negate(inner if inner is not None else ast.copy_location(ast.Constant(1.0), node))
+    lap = _first_lap(node)
+    where = f"inside {node.func.id}()" if isinstance(node, ast.Call) else "in this position"
+    raise error_at(
+        lap, text, f"lap() {where} is not supported; {_SUPPORTED} (coef of parameters, numbers, "
+        "x, y, z)",
+    )  # fmt: skip
+
+
+def _check_coefficient(node, text, own, species) -> None:
+    """A diffusion coefficient may not read species or time."""
+    for sub in ast.walk(node):
+        if isinstance(sub, ast.Name) and sub.id in species:
+            raise error_at(
+                sub, text,
+                f"lap({own}) multiplied by species {sub.id!r}: diffusion coefficients may use "
+                f"parameters, numbers and x, y, z only (nonlinear diffusion is not supported)",
+            )  # fmt: skip
+        if isinstance(sub, ast.Name) and sub.id == "t":
+            raise error_at(sub, text, "diffusion coefficients may not depend on time t")
+
+
+def _anisotropy(data, src, species, coef_names, coefficients) -> dict[int, tuple]:
+    """``[anisotropy]``: ``s = { angle = ..., along = ..., across = ... }`` per species."""
+    table = _table(data, "anisotropy", src)
+    out: dict[int, tuple] = {}
+    for s, spec in table.items():
+        where = src.locate("anisotropy", s)
+        if s not in species:
+            raise src.error(f"[anisotropy] names {s!r}, which is not a species", where)
+        if not isinstance(spec, dict):
+            raise src.error(
+                f"[anisotropy] {s} must be a table, e.g. {s} = {{ angle = \"0.3\", "
+                'along = "D1", across = "D2" }', where,
+            )  # fmt: skip
+        extra = sorted(set(spec) - {"angle", "along", "across"})
+        if extra or "along" not in spec or "across" not in spec:
+            raise src.error(
+                f"[anisotropy] {s} takes angle (radians, default 0), along and across", where
+            )
+        i = species.index(s)
+        if coefficients[i] is not None:
+            raise src.error(
+                f"species {s} has both a lap() term and an [anisotropy] entry; remove the "
+                "lap() term from its equation (the [anisotropy] entry gives its diffusion)", where,
+            )  # fmt: skip
+        parts = []
+        for key in ("angle", "along", "across"):
+            text = _expression_text(spec.get(key, 0.0), src, "anisotropy", s, f"{s}.{key}", key)
+            names = "anisotropy may use parameters, numbers and x, y, z"
+            try:
+                tree = parse(text)
+                _check_coefficient(tree, text, s, species)
+                parts.append(compile_node(tree, text, coef_names, what=names))
+            except ExpressionError as exc:
+                raise src.expression_error(
+                    exc, "anisotropy", s, f"anisotropy {s}.{key}", key
+                ) from None
+        out[i] = tuple(parts)
+    return out
+
+
+def _species(data, src) -> tuple[str, ...]:
+    if "species" not in data:
+        raise src.error('the model file has no species list; add e.g. species = ["u", "v"]')
+    species = data["species"]
+    where = src.locate(None, "species")
+    if not (isinstance(species, list) and species and all(isinstance(s, str) for s in species)):
+        raise src.error('species must be a non-empty list of names, e.g. ["u", "v"]', where)
+    for s in species:
+        _check_name(s, "species", src, where)
+    seen = set()
+    for s in species:
+        if s in seen:
+            raise src.error(f"species {s!r} is listed twice", where)
+        seen.add(s)
+    return tuple(species)
+
+
+def _parameters(data, src, species) -> dict[str, float]:
+    params = {}
+    for key, value in _table(data, "parameters", src).items():
+        where = src.locate("parameters", key)
+        _check_name(key, "parameter", src, where)
+        if key in species:
+            raise src.error(f"{key!r} is both a species and a parameter; rename one", where)
+        params[key] = _number(value, f"parameter {key}", src, where)
+    return params
+
+
+def _presets(data, src, params) -> dict[str, dict[str, float]]:
+    out = {}
+    for preset, values in _table(data, "presets", src).items():
+        if not isinstance(values, dict):
+            raise src.error(f"presets.{preset} must be a table of parameter values")
+        out[preset] = {}
+        for key, value in values.items():
+            where = src.locate(f"presets.{preset}", key)
+            if key not in params:
+                raise src.error(
+                    f"preset {preset!r} sets unknown parameter {key!r}; parameters are "
+                    + (", ".join(params) or "none"), where,
+                )  # fmt: skip
+            out[preset][key] = _number(value, f"preset {preset} {key}", src, where)
+    return out
+
+
+def _state_values(data, section, src, species, params):
+    """``[initial]`` / ``[excited]``: ``p -> S floats`` from numbers or parameter expressions."""
+    if section not in data:
+        return None
+    table = _table(data, section, src)
+    for key in table:
+        if key not in species:
+            raise src.error(f"[{section}] names {key!r}, which is not a species",
+                            src.locate(section, key))
+    missing = [s for s in species if s not in table]
+    if missing:
+        raise src.error(f"[{section}] needs a value for every species; {missing[0]!r} is missing")
+    terms = []
+    for s in species:
+        text = _expression_text(table[s], src, section, s, f"[{section}] {s}")
+        try:
+            tree = parse(text)
+            terms.append(compile_node(tree, text, params, what="values may use parameters"))
+        except ExpressionError as exc:
+            raise src.expression_error(exc, section, s, f"[{section}] {s}") from None
+
+    def values(p: Params) -> tuple[float, ...]:
+        return tuple(float(f(p)) for f in terms)
+
+    return values
+
+
+def _table(data, key, src, required=False) -> dict[str, Any]:
+    if key not in data:
+        if required:
+            raise src.error(f'the model file has no [{key}] table; add one, e.g. u = "..."')
+        return {}
+    if not isinstance(data[key], dict):
+        raise src.error(f"{key} must be a table ([{key}])", src.locate(None, key))
+    return data[key]
+
+
+def _check_name(name, kind, src, where) -> None:
+    if not name.isidentifier() or name.startswith("_") or keyword.iskeyword(name):
+        raise src.error(
+            f"{kind} name {name!r} is not usable in expressions; use letters, digits and "
+            "underscores, starting with a letter", where,
+        )  # fmt: skip
+    if name in RESERVED:
+        raise src.error(
+            f"{kind} name {name!r} is reserved (functions, lap, x, y, z, t); rename it", where
+        )
+
+
+def _number(value, what, src, where) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise src.error(f"{what} must be a number, got {value!r}", where)
+    return float(value)
+
+
+def _expression_text(value, src, section, key, what, subkey=None) -> str:
+    if isinstance(value, bool) or not isinstance(value, str | int | float):
+        raise src.error(f"{what} must be an expression in quotes", src.locate(section, key, subkey))
+    return value if isinstance(value, str) else repr(float(value))
+
+
+class _Source:
+    """The raw text of a model file, to turn positions into file lines and columns."""
+
+    def __init__(self, text: str, path: str | os.PathLike | None):
+        self.lines = text.splitlines()
+        self.prefix = f"{path}: " if path else ""
+
+    def error(self, message: str, at: tuple[int, int] | None = None) -> MorphogenError:
+        if at is None:
+            return MorphogenError(self.prefix + message)
+        return MorphogenError(f"{self.prefix}line {at[0]}, column {at[1]}: {message}")
+
+    def toml_error(self, exc: tomllib.TOMLDecodeError) -> MorphogenError:
+        message = str(exc).split("\n")[0]
+        match = re.match(r"(.*) \(at line (\d+), column (\d+)\)$", message)
+        if match:
+            at = (int(match.group(2)), int(match.group(3)))
+            return self.error(f"invalid TOML: {match.group(1)}", at)
+        return self.error(f"invalid TOML: {message}")
+
+    def expression_error(self, exc: ExpressionError, section, key, what, subkey=None):
+        start = self.locate(section, key, subkey, inside_string=True)
+        if start is None:
+            return self.error(f"{what}, line {exc.line}, column {exc.column}: {exc.reason}")
+        line, column = start
+        if exc.line == 1:
+            at = (line, column + exc.column - 1)
+        else:
+            at = (line + exc.line - 1, exc.column)
+        return self.error(f"{what}: {exc.reason}", at)
+
+    def locate(self, section, key, subkey=None, *, inside_string=False):
+        """File ``(line, column)`` of ``key`` in ``[section]`` (``None``: top level), or of the
+        first character inside its string value when ``inside_string``; ``None`` if not found.
+        """
+        current = None
+        quoted = re.escape(key)
+        pattern = re.compile(rf"""^\s*(?:{quoted}|"{quoted}"|'{quoted}')\s*=\s*""")
+        for number, line in enumerate(self.lines, start=1):
+            header = re.match(r"^\s*\[\s*([^\[\]]+?)\s*\]", line)
+            if header:
+                current = re.sub(r"\s*\.\s*", ".", header.group(1))
+                continue
+            if current != section:
+                continue
+            match = pattern.match(line)
+            if not match:
+                continue
+            if not inside_string and subkey is None:
+                return number, len(line) - len(line.lstrip()) + 1
+            position = match.end()
+            if subkey is not None:
+                sub = re.compile(rf"\b{re.escape(subkey)}\s*=\s*").search(line, position)
+                if not sub:
+                    return number, position + 1
+                position = sub.end()
+                if not inside_string:
+                    return number, sub.start() + 1
+            return self._string_start(number, line, position)
+        return None
+
+    def _string_start(self, number: int, line: str, position: int) -> tuple[int, int]:
+        rest = line[position:]
+        for quote in ('"""', "'''"):
+            if rest.startswith(quote):
+                if not rest[3:].strip():
+                    return number + 1, 1
+                return number, position + 4
+        if rest[:1] in ("'", '"'):
+            return number, position + 2
+        return number, position + 1

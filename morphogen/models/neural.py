@@ -1,0 +1,285 @@
+"""Neural reaction-diffusion: a small MLP as the reaction term (Mordvintsev et al., seed 002).
+
+The model is the PDE system ("Differentiable Reaction-Diffusion Model")
+
+.. math::
+
+    \\partial_t x_i = c_i\\nabla^2 x_i + f_\\theta(x_0, \\dots, x_{n-1}),\\qquad
+    f_\\theta(\\mathbf x) = \\mathrm{act}(\\mathbf x W_0 + b_0)\\, W_1,\\qquad
+    \\mathrm{act}(x) = x\\,\\sigma(5x)
+
+with ``W0`` of shape ``(n, h)``, ``b0`` ``(h,)`` and ``W1`` ``(h, n)``. Its discrete update rule
+(eq. 1) is
+
+.. math::
+
+    x_i^{t+1} = x_i^t + c_i\\,(K_{lap} * x_i^t)\\, d + f_\\theta(\\mathbf x^t)\\, r,
+    \\qquad d = \\Delta_t/\\Delta_h^2,\\quad r = \\Delta_t
+
+Here it is an ordinary :class:`~morphogen.models.model.Model`: the reaction is ``r * f(x)`` and
+the diffusion coefficient of channel ``i`` is ``c_i * d * KERNEL_SCALE``; one explicit Euler step
+with ``dt = 1`` on a unit grid is exactly eq. 1 with ``K_lap = KERNEL_SCALE * (domain
+Laplacian)``. ``r`` and ``d`` are parameters (scalars or fields, fig. 4), and the network weights
+travel in the parameter pytree too, so they stay runtime values: the same compiled program runs
+any weights, ``jax.grad`` flows to them, and the model runs unchanged on any domain that has a
+diffusion operator (2D or 3D grid, triangle mesh).
+
+The diffusion coefficients are fixed in four groups ``c = 1/8, 1/4, 1/2, 1`` (the paper's texture
+experiments, so the RGB channels ``x0..x2`` diffuse slowest) or learned as
+``c_i = sigmoid(c_hat_i)``.
+
+A trained model is saved as a small ``.npz`` file holding the weights and a JSON configuration
+(:func:`save_neural_model`, :func:`load_neural_model`).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from morphogen.errors import MorphogenError
+from morphogen.io import write_npz
+from morphogen.models.model import Array, Model, Params
+
+DIFFUSION_GROUPS = (1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0, 1.0)
+"""Fixed per-channel diffusion coefficients, one value per quarter of the channels."""
+
+KERNEL_SCALE = 0.25
+"""``K_lap = KERNEL_SCALE * Laplacian``: the 3x3 kernel of eq. 1 is a quarter of the unit-grid
+Laplacian (like the neural-CA kernel ``[[1, 2, 1], [2, -12, 2], [1, 2, 1]] / 16``), so the fastest
+channel (``c = 1``) is stable at ``r = d = dt = 1``: the 9-point stencil's spectral radius is
+``16/3``, times ``1/4`` gives ``4/3 < 2``."""
+
+WEIGHT_NAMES = ("W0", "b0", "W1")
+FORMAT = "morphogen-neural-rd"
+FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class NeuralConfig:
+    """Shape of a neural RD model.
+
+    Attributes:
+        channels: number of "chemicals" ``n`` (at least 3: the first three are RGB).
+        hidden: hidden units ``h`` of the reaction network.
+        learn_diffusion: learn ``c_i = sigmoid(c_hat_i)`` instead of the fixed groups.
+    """
+
+    channels: int = 12
+    hidden: int = 64
+    learn_diffusion: bool = False
+
+    def __post_init__(self) -> None:
+        if int(self.channels) < 3:
+            raise MorphogenError(
+                f"a neural RD model needs at least 3 channels (RGB), got {self.channels}"
+            )
+        if int(self.hidden) < 1:
+            raise MorphogenError(f"hidden units must be >= 1, got {self.hidden}")
+
+    @property
+    def parameter_count(self) -> int:
+        """Number of trained numbers: ``n h + h + h n`` (+ ``n`` if diffusion is learned);
+        8320 for the paper's ``n = 32, h = 128``."""
+        n, h = self.channels, self.hidden
+        return 2 * n * h + h + (n if self.learn_diffusion else 0)
+
+
+def fixed_diffusion(channels: int) -> np.ndarray:
+    """The fixed coefficients: channel ``i`` gets ``DIFFUSION_GROUPS[floor(4 i / n)]``, shape
+    ``(n,)``; for ``n = 32``: ``c_0..7 = 1/8, c_8..15 = 1/4, c_16..23 = 1/2, c_24..31 = 1``."""
+    groups = (4 * np.arange(channels)) // channels
+    return np.asarray(DIFFUSION_GROUPS, np.float32)[groups]
+
+
+def activation(x: Array) -> Array:
+    """``act(x) = x * sigmoid(5 x)`` (a Swish variant, seed 002 "Texture synthesis")."""
+    return x * jax.nn.sigmoid(5.0 * x)
+
+
+def reaction_network(u: Array, p: Params) -> Array:
+    """``f_theta`` applied at every cell; ``u`` has shape ``(n, *spatial)``, so does the result.
+
+    The network sees only the cell's own state: ``f(x) = act(x W0 + b0) W1``.
+    """
+    lift = (-1,) + (1,) * (u.ndim - 1)
+    z = jnp.tensordot(p["W0"], u, axes=([0], [0])) + p["b0"].reshape(lift)
+    return jnp.tensordot(p["W1"], activation(z), axes=([0], [0]))
+
+
+def diffusion_coefficients(config: NeuralConfig, p: Params) -> Array:
+    """The per-channel ``c_i``, shape ``(n,)``: fixed groups or ``sigmoid(c_hat)``."""
+    if config.learn_diffusion:
+        return jax.nn.sigmoid(jnp.asarray(p["c_hat"]))
+    return jnp.asarray(fixed_diffusion(config.channels))
+
+
+def init_weights(config: NeuralConfig, key: Array) -> dict[str, np.ndarray]:
+    """Initial weights: Glorot-uniform ``W0``, zero ``b0`` and zero ``W1`` (so ``f = 0`` and
+    training starts from pure diffusion); ``c_hat`` starts at the fixed groups' logits."""
+    n, h = config.channels, config.hidden
+    limit = np.sqrt(6.0 / (n + h))
+    w0 = jax.random.uniform(key, (n, h), jnp.float32, -limit, limit)
+    weights = {
+        "W0": np.asarray(w0),
+        "b0": np.zeros(h, np.float32),
+        "W1": np.zeros((h, n), np.float32),
+    }
+    if config.learn_diffusion:
+        c = fixed_diffusion(n).astype(np.float64)
+        weights["c_hat"] = np.log(c / (1.0 - np.minimum(c, 1.0 - 1e-3))).astype(np.float32)
+    return weights
+
+
+def trainable_names(config: NeuralConfig) -> tuple[str, ...]:
+    """Names of the parameters training updates."""
+    return WEIGHT_NAMES + (("c_hat",) if config.learn_diffusion else ())
+
+
+def neural_model(
+    config: NeuralConfig,
+    weights: Mapping[str, Any],
+    *,
+    name: str = "neural-rd",
+    description: str = "",
+    r: float = 1.0,
+    d: float = 1.0,
+) -> Model:
+    """A neural RD :class:`Model` with channels ``x0 .. x{n-1}``.
+
+    Args:
+        config: channel and hidden sizes, diffusion mode.
+        weights: ``W0`` ``(n, h)``, ``b0`` ``(h,)``, ``W1`` ``(h, n)`` (and ``c_hat`` ``(n,)``
+            when diffusion is learned).
+        r, d: default reaction and diffusion rates of eq. 1 (training uses ``r = d = 1``);
+            either may be overridden by a field at run time.
+
+    Raises:
+        MorphogenError: a weight is missing or has the wrong shape.
+    """
+    checked = check_weights(config, weights)
+    n = config.channels
+    species = tuple(f"x{i}" for i in range(n))
+
+    def reaction(u: Array, p: Params, c: Mapping) -> Array:
+        return reaction_network(u, p) * p["r"]
+
+    def diffusion(p: Params, c: Mapping) -> tuple:
+        coeff = diffusion_coefficients(config, p) * (p["d"] * KERNEL_SCALE)
+        return tuple(coeff[i] for i in range(n))
+
+    params: dict[str, Any] = {**checked, "r": float(r), "d": float(d)}
+    return Model(
+        name=name,
+        species=species,
+        params=params,
+        reaction=reaction,
+        diffusion=diffusion,
+        ground=lambda p: (0.0,) * n,
+        excited=lambda p: (1.0,) * n,
+        display="x0",
+        description=description
+        or f"neural reaction-diffusion, {n} channels, {config.hidden} hidden units",
+        reference="Mordvintsev, Randazzo & Niklasson, eq. 1",
+        dt=1.0,
+        t_end=2000.0,
+        init="blobs",
+    )
+
+
+def check_weights(config: NeuralConfig, weights: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """Validate weight names and shapes against ``config``; returns float32 host copies."""
+    n, h = config.channels, config.hidden
+    shapes = {"W0": (n, h), "b0": (h,), "W1": (h, n)}
+    if config.learn_diffusion:
+        shapes["c_hat"] = (n,)
+    out = {}
+    for key, shape in shapes.items():
+        if key not in weights:
+            raise MorphogenError(f"neural model weights lack {key!r} (expected shape {shape})")
+        arr = np.asarray(weights[key], np.float32)
+        if arr.shape != shape:
+            raise MorphogenError(
+                f"neural model weight {key!r} has shape {arr.shape}, expected {shape} for "
+                f"{n} channels and {h} hidden units"
+            )
+        if not np.all(np.isfinite(arr)):
+            raise MorphogenError(f"neural model weight {key!r} contains NaN or Inf")
+        out[key] = arr
+    return out
+
+
+def save_neural_model(
+    path: str | Path,
+    config: NeuralConfig,
+    weights: Mapping[str, Any],
+    metadata: Mapping[str, Any] | None = None,
+) -> Path:
+    """Write weights and configuration to one ``.npz`` file (atomically).
+
+    The file holds the weight arrays and a ``config`` entry: a JSON string with the format
+    name, version, :class:`NeuralConfig` fields and free-form ``metadata`` (e.g. the training
+    target and iterations). It loads without unpickling.
+    """
+    checked = check_weights(config, weights)
+    info = {
+        "format": FORMAT,
+        "version": FORMAT_VERSION,
+        "config": asdict(config),
+        "metadata": dict(metadata or {}),
+    }
+    arrays = {**checked, "config": np.array(json.dumps(info, default=str))}
+    return write_npz(path, arrays)
+
+
+def read_neural_file(path: str | Path) -> tuple[NeuralConfig, dict[str, np.ndarray], dict]:
+    """Read a file written by :func:`save_neural_model`: ``(config, weights, metadata)``.
+
+    Raises:
+        MorphogenError: the file is missing, not a neural model, or damaged.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise MorphogenError(f"neural model file {path} does not exist")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {k: np.asarray(data[k]) for k in data.files}
+    except (OSError, ValueError) as exc:
+        raise MorphogenError(f"cannot read neural model file {path}: {exc}") from None
+    if "config" not in arrays:
+        raise MorphogenError(f"{path} is not a morphogen neural model (no 'config' entry)")
+    try:
+        info = json.loads(str(arrays.pop("config")))
+    except json.JSONDecodeError:
+        raise MorphogenError(f"{path}: the 'config' entry is not valid JSON") from None
+    if info.get("format") != FORMAT:
+        raise MorphogenError(f"{path} is not a morphogen neural model (format {info.get('format')!r})")
+    if int(info.get("version", 0)) > FORMAT_VERSION:
+        raise MorphogenError(
+            f"{path} was written by a newer morphogen (format version {info['version']}); upgrade"
+        )
+    try:
+        config = NeuralConfig(**info["config"])
+    except TypeError:
+        raise MorphogenError(f"{path}: unknown fields in the model configuration") from None
+    return config, check_weights(config, arrays), dict(info.get("metadata", {}))
+
+
+def load_neural_model(path: str | Path) -> Model:
+    """The :class:`Model` stored in a neural model file (see :func:`save_neural_model`)."""
+    config, weights, metadata = read_neural_file(path)
+    target = metadata.get("target")
+    description = f"neural RD trained on {Path(target).name}" if target else ""
+    return neural_model(config, weights, name=Path(path).stem, description=description)
+
+
+def is_neural_file(path: str | Path) -> bool:
+    """Whether ``path`` names a neural model file (by its ``.npz`` suffix)."""
+    return str(path).lower().endswith(".npz")
