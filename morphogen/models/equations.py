@@ -16,17 +16,17 @@ A file names the species, the parameters and one equation per species, e.g.::
 Each equation is the right-hand side of :math:`\\partial_t u_i = R_i + D_i \\nabla^2 u_i`
 (Skaggs eq. 2.2). It is split into the reaction ``R_i`` (every additive term without ``lap``) and
 the diffusion coefficient ``D_i`` (the sum of the ``coef`` of the terms ``coef*lap(u_i)``; the
-coefficient may read parameters, numbers and ``x, y, z``). Optional sections: ``description``,
-``reference``, ``display``, ``[initial]`` and ``[excited]`` (per-species values or expressions
-of the parameters), ``[presets.NAME]`` and ``[anisotropy]`` (a principal direction and two rates,
-Ringham et al. eq. 18). The text is untrusted: expressions go through the whitelist compiler of
+coefficient may read parameters, numbers and ``x, y, z``; see
+:mod:`morphogen.models.equation_terms`). Optional entries: ``description``, ``reference``,
+``display``, the run hints ``dt``, ``t_end``, ``init`` and ``clamp``, ``[initial]`` and
+``[excited]`` (per-species values or expressions of the parameters), ``[presets.NAME]`` and
+``[anisotropy]`` (a principal direction and two rates, Ringham et al. eq. 18). The text is untrusted: expressions go through the whitelist compiler of
 :mod:`morphogen.models.expr`, and every error names the file line and column. See
 ``docs/equations.md``.
 """
 
 from __future__ import annotations
 
-import ast
 import keyword
 import os
 import re
@@ -38,28 +38,19 @@ from typing import Any
 import jax.numpy as jnp
 
 from morphogen.errors import MorphogenError
-from morphogen.models.expr import (
-    FUNCTIONS,
-    Evaluator,
-    ExpressionError,
-    compile_node,
-    error_at,
-    parse,
-)
-from morphogen.models.model import Array, Model, Params, Tensor
+from morphogen.models.equation_terms import check_coefficient, principal_tensor, split_equation
+from morphogen.models.expr import FUNCTIONS, Evaluator, ExpressionError, compile_node, parse
+from morphogen.models.model import Array, Model, Params
 
 COORDINATES = ("x", "y", "z")
 RESERVED = frozenset(FUNCTIONS) | {"lap", "x", "y", "z", "t"}
 """Names a parameter or species may not take."""
 
 KEYS = (
-    "name", "species", "description", "reference", "display",
+    "name", "species", "description", "reference", "display", "dt", "t_end", "init", "clamp",
     "parameters", "equations", "initial", "excited", "presets", "anisotropy",
 )  # fmt: skip
 """Top-level keys and tables of a model file."""
-
-_SUPPORTED = "write diffusion as coef*lap(s) added to the equation of species s"
-
 
 def load_model(name_or_path: str | os.PathLike) -> Model:
     """A library model by name, or a model file.
@@ -138,7 +129,7 @@ def parse_model(
     if display is not None and display not in species:
         raise src.error(f"display = {display!r} is not a species (species: {', '.join(species)})")
     title = data.get("name", name or (Path(path).stem if path else "model"))
-    for key in ("name", "description", "reference"):
+    for key in ("name", "description", "reference", "init"):
         if key in data and not isinstance(data[key], str):
             raise src.error(f"{key} must be a string", src.locate(None, key))
     return Model(
@@ -154,7 +145,38 @@ def parse_model(
         description=data.get("description", ""),
         reference=data.get("reference", f"model file {path}" if path else "model file"),
         source=text,
+        **_run_hints(data, src),
     )
+
+
+def _run_hints(data, src) -> dict[str, Any]:
+    """``dt``, ``t_end``, ``init`` and ``clamp``: the model's suggestions for a run."""
+    out: dict[str, Any] = {}
+    for key in ("dt", "t_end"):
+        if key in data:
+            value = _number(data[key], key, src, src.locate(None, key))
+            if not value > 0:
+                raise src.error(f"{key} must be positive, got {value:g}", src.locate(None, key))
+            out[key] = value
+    if "init" in data:
+        from morphogen.initial import INITIAL_KINDS
+
+        if data["init"] not in INITIAL_KINDS:
+            raise src.error(
+                f"init = {data['init']!r} is not an initial condition; use one of "
+                + ", ".join(INITIAL_KINDS), src.locate(None, "init"),
+            )  # fmt: skip
+        out["init"] = data["init"]
+    if "clamp" in data:
+        bounds = data["clamp"]
+        where = src.locate(None, "clamp")
+        if not isinstance(bounds, list) or len(bounds) != 2:
+            raise src.error("clamp must be [low, high], e.g. clamp = [0, 100]", where)
+        lo, hi = (_number(b, "clamp bound", src, where) for b in bounds)
+        if not lo < hi:
+            raise src.error(f"clamp needs low < high, got [{lo:g}, {hi:g}]", where)
+        out["clamp"] = (lo, hi)
+    return out
 
 
 def _reaction(species: tuple[str, ...], terms: Sequence[Evaluator]):
@@ -177,7 +199,7 @@ def _diffusion(coefficients: Sequence[Evaluator | None], tensors: Mapping[int, t
         out = []
         for i, coef in enumerate(coefficients):
             if i in tensors:
-                out.append(_tensor(*(f(env) for f in tensors[i])))
+                out.append(principal_tensor(*(f(env) for f in tensors[i])))
             else:
                 out.append(0.0 if coef is None else coef(env))
         return tuple(out)
@@ -185,40 +207,19 @@ def _diffusion(coefficients: Sequence[Evaluator | None], tensors: Mapping[int, t
     return diffusion
 
 
-def _tensor(angle: Array, along: Array, across: Array) -> Tensor:
-    """Diffusion tensor from a principal direction and two rates (Ringham et al. eq. 18).
-
-    .. math::
-        D = \\lambda_1 e e^T + \\lambda_2 e_\\perp e_\\perp^T,\\qquad
-        e = (\\cos\\theta, \\sin\\theta),\\ e_\\perp = (-\\sin\\theta, \\cos\\theta)
-
-    with ``along`` = :math:`\\lambda_1`, ``across`` = :math:`\\lambda_2`, ``angle`` =
-    :math:`\\theta` in radians from the x axis; the flux is Ringham eq. 8.
-    """
-    cos, sin = jnp.cos(angle), jnp.sin(angle)
-    return Tensor(
-        xx=along * cos * cos + across * sin * sin,
-        xy=(along - across) * cos * sin,
-        yy=along * sin * sin + across * cos * cos,
-    )
-
-
 def _equation(value, s, species, reaction_names, coef_names, src):
     """Compile one equation into (reaction evaluator, diffusion evaluator or None)."""
     text = _expression_text(value, src, "equations", s, f"the equation for {s}")
     try:
         tree = parse(text, extra_functions={"lap": 1})
-        reaction, coefs = _split(tree, text, s, species)
+        reaction, total = split_equation(tree, text, s, species)
         if reaction is None:
             rx = _zero
         else:
             names = "names are parameters, species, x, y, z, t"
             rx = compile_node(reaction, text, reaction_names, what=names)
         coef = None
-        if coefs:
-            total = coefs[0]
-            for term in coefs[1:]:
-                total = ast.copy_location(ast.BinOp(total, ast.Add(), term), term)
+        if total is not None:
             names = "diffusion coefficients may use parameters, numbers and x, y, z"
             coef = compile_node(total, text, coef_names, what=names)
     except ExpressionError as exc:
@@ -228,107 +229,6 @@ def _equation(value, s, species, reaction_names, coef_names, src):
 
 def _zero(env: Mapping[str, Array]) -> float:
     return 0.0
-
-
-def _has_lap(node: ast.AST) -> bool:
-    return any(_is_lap(sub) for sub in ast.walk(node))
-
-
-def _is_lap(node: ast.AST) -> bool:
-    return isinstance(node, ast.Call) and node.func.id == "lap"
-
-
-def _first_lap(node: ast.AST) -> ast.Call:
-    return next(sub for sub in ast.walk(node) if _is_lap(sub))
-
-
-def _negate(node: ast.expr) -> ast.expr:
-    return ast.copy_location(ast.UnaryOp(ast.USub(), node), node)
-
-
-def _split(node, text, own, species) -> tuple[ast.expr | None, list[ast.expr]]:
-    """Split an equation into its reaction part and its diffusion coefficients.
-
-    The sum structure is walked through ``+``, ``-`` and unary minus; subtrees without ``lap``
-    are kept unchanged (so the arithmetic, and its rounding, is exactly what was written).
-    Returns ``(reaction or None, [coefficient of each coef*lap(own) term, signed])``.
-    """
-    if not _has_lap(node):
-        return node, []
-    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add | ast.Sub):
-        left, left_coefs = _split(node.left, text, own, species)
-        right, right_coefs = _split(node.right, text, own, species)
-        if isinstance(node.op, ast.Sub):
-            right_coefs = [_negate(c) for c in right_coefs]
-            if left is None and right is not None:
-                right = _negate(right)
-        if left is None or right is None:
-            reaction = left if right is None else right
-        else:
-            reaction = ast.copy_location(ast.BinOp(left, node.op, right), node)
-        return reaction, left_coefs + right_coefs
-    if isinstance(node, ast.UnaryOp):
-        inner, coefs = _split(node.operand, text, own, species)
-        if isinstance(node.op, ast.USub):
-            return (None if inner is None else _negate(inner)), [_negate(c) for c in coefs]
-        return inner, coefs
-    coef = _diffusion_term(node, text, own, species)
-    return None, [coef if coef is not None else ast.copy_location(ast.Constant(1.0), node)]
-
-
-def _diffusion_term(node, text, own, species) -> ast.expr | None:
-    """The coefficient of a ``coef*lap(own)`` term (``None`` for a bare ``lap(own)``)."""
-    if _is_lap(node):
-        arg = node.args[0]
-        if not isinstance(arg, ast.Name) or arg.id not in species:
-            raise error_at(arg, text, f"lap() takes a species name, e.g. lap({own})")
-        if arg.id != own:
-            raise error_at(
-                node, text,
-                f"lap({arg.id}) in the equation for {own}: an equation may only diffuse its own "
-                f"species; {_SUPPORTED} (cross-diffusion is not supported)",
-            )  # fmt: skip
-        return None
-    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Mult | ast.Div):
-        if _has_lap(node.right):
-            if isinstance(node.op, ast.Div) or _has_lap(node.left):
-                raise error_at(
-                    _first_lap(node.right), text,
-                    f"lap() cannot be divided by or multiplied with another lap(); {_SUPPORTED}",
-                )  # fmt: skip
-            factor, inner = node.left, _diffusion_term(node.right, text, own, species)
-        else:
-            factor, inner = node.right, _diffusion_term(node.left, text, own, species)
-        _check_coefficient(factor, text, own, species)
-        if inner is None:
-            if isinstance(node.op, ast.Mult):
-                return factor
-            inner = ast.copy_location(ast.Constant(1.0), node)
-        return ast.copy_location(ast.BinOp(inner, node.op, factor), node)
-    if isinstance(node, ast.UnaryOp):
-        inner = _diffusion_term(node.operand, text, own, species)
-        if isinstance(node.op, ast.UAdd):
-            return inner
-        return _negate(inner if inner is not None else ast.copy_location(ast.Constant(1.0), node))
-    lap = _first_lap(node)
-    where = f"inside {node.func.id}()" if isinstance(node, ast.Call) else "in this position"
-    raise error_at(
-        lap, text, f"lap() {where} is not supported; {_SUPPORTED} (coef of parameters, numbers, "
-        "x, y, z)",
-    )  # fmt: skip
-
-
-def _check_coefficient(node, text, own, species) -> None:
-    """A diffusion coefficient may not read species or time."""
-    for sub in ast.walk(node):
-        if isinstance(sub, ast.Name) and sub.id in species:
-            raise error_at(
-                sub, text,
-                f"lap({own}) multiplied by species {sub.id!r}: diffusion coefficients may use "
-                f"parameters, numbers and x, y, z only (nonlinear diffusion is not supported)",
-            )  # fmt: skip
-        if isinstance(sub, ast.Name) and sub.id == "t":
-            raise error_at(sub, text, "diffusion coefficients may not depend on time t")
 
 
 def _anisotropy(data, src, species, coef_names, coefficients) -> dict[int, tuple]:
@@ -361,7 +261,7 @@ def _anisotropy(data, src, species, coef_names, coefficients) -> dict[int, tuple
             names = "anisotropy may use parameters, numbers and x, y, z"
             try:
                 tree = parse(text)
-                _check_coefficient(tree, text, s, species)
+                check_coefficient(tree, text, s, species)
                 parts.append(compile_node(tree, text, coef_names, what=names))
             except ExpressionError as exc:
                 raise src.expression_error(
