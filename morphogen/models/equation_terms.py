@@ -126,15 +126,16 @@ def _diffusion_term(node, text, own, species) -> ast.expr | None:
         return None
     if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Mult | ast.Div):
         if _has_lap(node.right):
-            if isinstance(node.op, ast.Div) or _has_lap(node.left):
-                raise error_at(
-                    _first_lap(node.right), text,
-                    f"lap() cannot be divided by or multiplied with another lap(); {_SUPPORTED}",
-                )  # fmt: skip
+            if isinstance(node.op, ast.Div):
+                reason = f"lap() in a denominator is not supported; {_SUPPORTED}"
+                raise error_at(_first_lap(node.right), text, reason)
+            if _has_lap(node.left):
+                reason = f"a product of two lap() terms is not supported; {_SUPPORTED}"
+                raise error_at(_first_lap(node.right), text, reason)
             factor, inner = node.left, _diffusion_term(node.right, text, own, species)
         else:
             factor, inner = node.right, _diffusion_term(node.left, text, own, species)
-        check_coefficient(factor, text, own, species)
+        check_coefficient(factor, text, species, f"lap({own}) multiplied by")
         if inner is None:
             if isinstance(node.op, ast.Mult):
                 return factor
@@ -146,21 +147,26 @@ def _diffusion_term(node, text, own, species) -> ast.expr | None:
             return inner
         return _negate(inner if inner is not None else ast.copy_location(ast.Constant(1.0), node))
     lap = _first_lap(node)
-    where = f"inside {node.func.id}()" if isinstance(node, ast.Call) else "in this position"
+    if isinstance(node, ast.Call):
+        where = f"inside {node.func.id}()"
+    elif isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow):
+        where = "in a power"
+    else:
+        where = "inside brackets"
     raise error_at(
         lap, text, f"lap() {where} is not supported; {_SUPPORTED} (coef of parameters, numbers, "
         "x, y, z)",
     )  # fmt: skip
 
 
-def check_coefficient(node, text, own, species) -> None:
-    """A diffusion coefficient may not read species or time."""
+def check_coefficient(node: ast.AST, text: str, species: tuple[str, ...], what: str) -> None:
+    """Raise if a diffusion coefficient reads a species or time (``what`` starts the message)."""
     for sub in ast.walk(node):
         if isinstance(sub, ast.Name) and sub.id in species:
             raise error_at(
                 sub, text,
-                f"lap({own}) multiplied by species {sub.id!r}: diffusion coefficients may use "
-                f"parameters, numbers and x, y, z only (nonlinear diffusion is not supported)",
+                f"{what} species {sub.id!r}: diffusion coefficients may use parameters, numbers "
+                "and x, y, z only (nonlinear diffusion is not supported)",
             )  # fmt: skip
         if isinstance(sub, ast.Name) and sub.id == "t":
             raise error_at(sub, text, "diffusion coefficients may not depend on time t")

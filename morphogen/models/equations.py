@@ -20,9 +20,9 @@ coefficient may read parameters, numbers and ``x, y, z``; see
 :mod:`morphogen.models.equation_terms`). Optional entries: ``description``, ``reference``,
 ``display``, the run hints ``dt``, ``t_end``, ``init`` and ``clamp``, ``[initial]`` and
 ``[excited]`` (per-species values or expressions of the parameters), ``[presets.NAME]`` and
-``[anisotropy]`` (a principal direction and two rates, Ringham et al. eq. 18). The text is untrusted: expressions go through the whitelist compiler of
-:mod:`morphogen.models.expr`, and every error names the file line and column. See
-``docs/equations.md``.
+``[anisotropy]`` (a principal direction and two rates, Ringham et al. eq. 18). The text is
+untrusted: expressions go through the whitelist compiler of :mod:`morphogen.models.expr`, and
+every error names the file line and column. See ``docs/equations.md``.
 """
 
 from __future__ import annotations
@@ -116,7 +116,9 @@ def parse_model(
             )
     missing = [s for s in species if s not in eqs]
     if missing:
-        raise src.error(f"species {missing[0]!r} has no equation in [equations]")
+        raise src.error(
+            f"species {missing[0]!r} has no equation in [equations]", src.locate(None, "species")
+        )
     reaction_names = set(params) | set(species) | set(COORDINATES) | {"t"}
     coef_names = set(params) | set(COORDINATES)
     reactions, coefficients = [], []
@@ -127,7 +129,10 @@ def parse_model(
     tensors = _anisotropy(data, src, species, coef_names, coefficients)
     display = data.get("display")
     if display is not None and display not in species:
-        raise src.error(f"display = {display!r} is not a species (species: {', '.join(species)})")
+        raise src.error(
+            f"display = {display!r} is not a species (species: {', '.join(species)})",
+            src.locate(None, "display"),
+        )
     title = data.get("name", name or (Path(path).stem if path else "model"))
     for key in ("name", "description", "reference", "init"):
         if key in data and not isinstance(data[key], str):
@@ -216,11 +221,11 @@ def _equation(value, s, species, reaction_names, coef_names, src):
         if reaction is None:
             rx = _zero
         else:
-            names = "names are parameters, species, x, y, z, t"
+            names = "known names:"
             rx = compile_node(reaction, text, reaction_names, what=names)
         coef = None
         if total is not None:
-            names = "diffusion coefficients may use parameters, numbers and x, y, z"
+            names = "a diffusion coefficient may use numbers and"
             coef = compile_node(total, text, coef_names, what=names)
     except ExpressionError as exc:
         raise src.expression_error(exc, "equations", s, f"equation for {s}") from None
@@ -258,10 +263,10 @@ def _anisotropy(data, src, species, coef_names, coefficients) -> dict[int, tuple
         parts = []
         for key in ("angle", "along", "across"):
             text = _expression_text(spec.get(key, 0.0), src, "anisotropy", s, f"{s}.{key}", key)
-            names = "anisotropy may use parameters, numbers and x, y, z"
+            names = "anisotropy may use numbers and"
             try:
                 tree = parse(text)
-                check_coefficient(tree, text, s, species)
+                check_coefficient(tree, text, species, "anisotropy depends on")
                 parts.append(compile_node(tree, text, coef_names, what=names))
             except ExpressionError as exc:
                 raise src.expression_error(
@@ -333,7 +338,8 @@ def _state_values(data, section, src, species, params):
         text = _expression_text(table[s], src, section, s, f"[{section}] {s}")
         try:
             tree = parse(text)
-            terms.append(compile_node(tree, text, params, what="values may use parameters"))
+            names = "values may use numbers and the parameters:"
+            terms.append(compile_node(tree, text, params, what=names))
         except ExpressionError as exc:
             raise src.expression_error(exc, section, s, f"[{section}] {s}") from None
 
@@ -392,10 +398,14 @@ class _Source:
     def toml_error(self, exc: tomllib.TOMLDecodeError) -> MorphogenError:
         message = str(exc).split("\n")[0]
         match = re.match(r"(.*) \(at line (\d+), column (\d+)\)$", message)
+        hint = " (a name is defined twice)" if "overwrite" in message else ""
         if match:
             at = (int(match.group(2)), int(match.group(3)))
-            return self.error(f"invalid TOML: {match.group(1)}", at)
-        return self.error(f"invalid TOML: {message}")
+            return self.error(f"invalid TOML: {match.group(1)}{hint}", at)
+        if message.endswith("(at end of document)"):
+            at = (max(len(self.lines), 1), len(self.lines[-1]) + 1 if self.lines else 1)
+            return self.error(f"invalid TOML: {message[: -len(' (at end of document)')]}", at)
+        return self.error(f"invalid TOML: {message}{hint}")
 
     def expression_error(self, exc: ExpressionError, section, key, what, subkey=None):
         start = self.locate(section, key, subkey, inside_string=True)

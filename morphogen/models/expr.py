@@ -157,7 +157,7 @@ class Expression:
 
 
 def compile_expression(
-    text: str, names: Collection[str], *, what: str = "names"
+    text: str, names: Collection[str], *, what: str = "known names:"
 ) -> Expression:
     """Parse, check and compile ``text`` in one go (see the module docstring).
 
@@ -308,7 +308,7 @@ def _check_call(
 
 
 def compile_node(
-    node: ast.expr, text: str, names: Collection[str], *, what: str = "names"
+    node: ast.expr, text: str, names: Collection[str], *, what: str = "known names:"
 ) -> Evaluator:
     """Compile a checked node (from :func:`parse`) into ``evaluate(env) -> array``.
 
@@ -379,7 +379,7 @@ def _name(node: ast.Name, text: str, names: frozenset[str], what: str) -> Evalua
         if name in FUNCTIONS:
             raise error_at(node, text, f"{name} is a function: call it as {FUNCTIONS[name][2]}")
         known = ", ".join(sorted(names)) or "none"
-        raise error_at(node, text, f"unknown name {name!r}; {what}: {known}")
+        raise error_at(node, text, f"unknown name {name!r}; {what} {known}")
     return lambda env: _lookup(env, name)
 
 
