@@ -1,0 +1,82 @@
+"""The Atlas page: a map over two parameters computed as one batched run.
+
+``POST /api/atlas`` validates the request, queues a job and returns its id. The job simulates
+every ``(x, y)`` pair as one member of a batch (:func:`morphogen.simulate.simulate_batch`), in a
+few compiled chunks so that progress shows and the time limit holds, and renders the tiles into
+one image without labels: tile ``(i, j)`` (row ``i`` from the top, column ``j``) sits at pixel
+``(pad + j (tile + pad), pad + i (tile + pad))``, so the page maps a click to a tile exactly and
+draws the axes itself. Row 0 is the largest ``y`` (``y`` grows upwards, as on a plot).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import imageio.v3 as iio
+import numpy as np
+from fastapi import APIRouter, Request
+
+from morphogen.errors import MorphogenError
+from morphogen.web import batch
+from morphogen.web.catalog import check_params, resolve_model
+from morphogen.web.jobs import Job, Progress
+from morphogen.web.limits import JSONBody, Limits, check_budget, integer, number
+
+router = APIRouter(prefix="/api/atlas")
+
+PAD = 1
+CHUNKS = 8
+
+
+def parse_axis(spec: Any, model_params: dict[str, float], which: str, limits: Limits) -> dict:
+    """``{"name", "lo", "hi", "n"}`` validated against the model's parameters."""
+    if not isinstance(spec, dict):
+        raise MorphogenError(f"atlas axis {which} must be {{name, lo, hi, n}}")
+    name = spec.get("name")
+    if name not in model_params:
+        raise MorphogenError(
+            f"atlas axis {which}: unknown parameter {name!r}; parameters are "
+            + ", ".join(model_params)
+        )
+    lo = number(spec.get("lo"), f"{which} from", -1e6, 1e6)
+    hi = number(spec.get("hi"), f"{which} to", -1e6, 1e6)
+    if hi <= lo:
+        raise MorphogenError(f"atlas axis {which}: 'to' must be larger than 'from'")
+    n = integer(spec.get("n", 8), f"{which} tiles", 1, limits.max_tiles_per_axis)
+    return {"name": name, "lo": lo, "hi": hi, "n": n,
+            "values": np.linspace(lo, hi, n).tolist() if n > 1 else [lo]}
+
+
+@router.post("")
+async def start(request: Request, body: JSONBody):
+    """Validate an atlas request and queue it; returns ``{"job": id}``."""
+    lim: Limits = request.app.state.limits
+    spec = body.get("model", {"library": "gray-scott"})
+    model, _ = resolve_model(spec, lim)
+    base = model.parameters(check_params(body.get("params"), model))
+    x = parse_axis(body.get("x"), base, "x", lim)
+    y = parse_axis(body.get("y"), base, "y", lim)
+    if x["name"] == y["name"]:
+        raise MorphogenError("the two atlas axes must be different parameters")
+    run = batch.settings(body, model, base, lim, tile_default=64)
+    check_budget(run["tile"] ** 2, run["steps"], x["n"] * y["n"], lim)
+    cmap = batch.colour_map(body.get("cmap", "viridis"))
+
+    def work(job: Job, progress: Progress) -> dict[str, Any]:
+        # row-major from the top: y descending, x ascending
+        ys = np.repeat(np.asarray(y["values"][::-1]), x["n"])
+        xs = np.tile(np.asarray(x["values"]), y["n"])
+        values = {x["name"]: xs, y["name"]: ys}
+        states, valid = batch.run(model, base, values, run, progress, "atlas")
+        image = batch.mosaic(states, model, run["species"], cmap, (y["n"], x["n"]), PAD)
+        job.files["atlas.png"] = (iio.imwrite("<bytes>", image, extension=".png"), "image/png")
+        return {
+            "image": f"/api/jobs/{job.id}/files/atlas.png",
+            "x": x, "y": y, "tile": run["tile"], "pad": PAD,
+            "valid": valid.reshape(y["n"], x["n"]).tolist(),
+            "model": spec, "model_name": model.name, "params": base,
+            "dt": run["dt"], "steps": run["steps"], "init": run["init"], "seed": run["seed"],
+        }
+
+    job = request.app.state.jobs.submit("atlas", work)
+    return {"job": job.id}

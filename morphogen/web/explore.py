@@ -1,0 +1,204 @@
+"""HTTP and WebSocket routes of the Explore page (the live simulation).
+
+Frames travel as binary messages: a 28-byte little-endian header
+``(width u16, height u16, frame u32, t f32, steps u32, lo f32, hi f32, compute_ms f32)``
+followed by ``width * height`` bytes of the shown species quantised to 0-255 (row 0 at the top).
+The page pulls one frame at a time over a WebSocket (send ``"next"``, receive a frame), which
+keeps at most one frame in flight per tab; ``GET .../frame`` serves the same bytes for polling.
+"""
+
+from __future__ import annotations
+
+import struct
+from typing import Any
+
+from fastapi import APIRouter, Request, WebSocket, WebSocketDisconnect
+from fastapi.responses import JSONResponse, Response
+
+from morphogen.errors import MorphogenError
+from morphogen.web import export
+from morphogen.web.limits import JSONBody, OptionalBody, integer, run_limited
+from morphogen.web.live import Frame, LiveSim
+
+router = APIRouter(prefix="/api/live")
+
+HEADER = struct.Struct("<HHIfIfff")
+"""Frame header: width, height, frame number, t, steps, lo, hi, compute time (ms)."""
+MAX_STROKE = 64
+"""Points in one paint request (a drag is sent in pieces)."""
+
+
+def encode_frame(f: Frame) -> bytes:
+    """Header + pixels of a :class:`Frame` (see the module docstring)."""
+    h, w = f.pixels.shape
+    head = HEADER.pack(w, h, f.frame, f.t, f.steps, f.lo, f.hi, 1000.0 * f.compute_s)
+    return head + f.pixels.tobytes()
+
+
+def _sim(request_or_ws: Request | WebSocket, sid: str) -> LiveSim:
+    return request_or_ws.app.state.sessions.get(sid)
+
+
+async def _configure(request: Request, sim: LiveSim, body: dict[str, Any]) -> dict[str, Any]:
+    lim = request.app.state.limits
+    return await run_limited(
+        lambda: sim.configure(
+            body.get("model", {"library": "gray-scott"}),
+            size=body.get("size", 256),
+            boundary=body.get("boundary", "periodic"),
+            params=body.get("params"),
+            preset=body.get("preset"),
+            init=body.get("init"),
+            seed=body.get("seed", 0),
+        ),
+        lim.request_timeout_s,
+        "setting up the model",
+    )
+
+
+@router.post("")
+async def create(request: Request, body: OptionalBody = None):
+    """Start a live simulation for one tab; returns its id and settings."""
+    body = body or {}
+    store = request.app.state.sessions
+    sid, sim = store.create()
+    try:
+        state = await _configure(request, sim, body)
+    except MorphogenError:
+        store.drop(sid)
+        raise
+    return {"id": sid, **state}
+
+
+@router.get("/{sid}")
+async def describe(request: Request, sid: str):
+    return _sim(request, sid).describe()
+
+
+@router.delete("/{sid}")
+async def close(request: Request, sid: str):
+    request.app.state.sessions.drop(sid)
+    return {"ok": True}
+
+
+@router.post("/{sid}/configure")
+async def configure(request: Request, sid: str, body: JSONBody):
+    """Change model, grid size or boundary (and reset)."""
+    return await _configure(request, _sim(request, sid), body)
+
+
+@router.post("/{sid}/params")
+async def params(request: Request, sid: str, body: JSONBody):
+    """Change parameter values (slider moves); never recompiles."""
+    sim = _sim(request, sid)
+    notices = sim.set_params(body.get("params", {}))
+    if "dt" in body:
+        notices += sim.set_dt(body["dt"])
+    return {"notices": notices, **sim.describe()}
+
+
+@router.post("/{sid}/view")
+async def view(request: Request, sid: str, body: JSONBody):
+    """Species shown, steps per frame, colour map."""
+    sim = _sim(request, sid)
+    sim.set_view(species=body.get("species"), steps_per_frame=body.get("steps_per_frame"),
+                 cmap=body.get("cmap"))
+    return sim.describe()
+
+
+@router.post("/{sid}/reset")
+async def reset(request: Request, sid: str, body: OptionalBody = None):
+    body = body or {}
+    sim = _sim(request, sid)
+    await run_limited(lambda: sim.reset(body.get("init", sim.init), body.get("seed", sim.seed)),
+                      request.app.state.limits.request_timeout_s, "reset")
+    return sim.describe()
+
+
+@router.post("/{sid}/paint")
+async def paint(request: Request, sid: str, body: JSONBody):
+    """Paint discs at ``points`` (``[[x, y], ...]``, fractions of width and height)."""
+    sim = _sim(request, sid)
+    points = body.get("points")
+    if not isinstance(points, list) or not points:
+        raise MorphogenError("paint needs points: a list of [x, y] pairs in [0, 1]")
+    if len(points) > MAX_STROKE:
+        raise MorphogenError(f"at most {MAX_STROKE} points per paint request")
+    for pt in points:
+        if not isinstance(pt, list | tuple) or len(pt) != 2:
+            raise MorphogenError("each paint point must be [x, y]")
+
+    def work():
+        for x, y in points:
+            sim.paint(x, y, body.get("radius", 0.03), body.get("mode", "excite"))
+
+    await run_limited(work, request.app.state.limits.request_timeout_s, "painting")
+    return {"ok": True}
+
+
+@router.get("/{sid}/frame")
+async def frame(request: Request, sid: str):
+    """Advance one frame and return it as bytes (409 with a message after a blow-up)."""
+    sim = _sim(request, sid)
+    f = await run_limited(sim.frame, request.app.state.limits.request_timeout_s, "a frame")
+    if sim.error:
+        return JSONResponse({"error": sim.error}, status_code=409)
+    return Response(encode_frame(f), media_type="application/octet-stream")
+
+
+@router.websocket("/{sid}/ws")
+async def stream(ws: WebSocket, sid: str):
+    """Frames on demand: each text message ``next`` is answered with one binary frame, or with
+    a JSON text message ``{"error": ...}`` when the simulation blew up or a frame failed."""
+    await ws.accept()
+    limits = ws.app.state.limits
+    try:
+        while True:
+            msg = await ws.receive_text()
+            if msg != "next":
+                await ws.send_json({"error": "send 'next' to get a frame"})
+                continue
+            try:
+                sim = _sim(ws, sid)
+                f = await run_limited(sim.frame, limits.request_timeout_s, "a frame")
+            except MorphogenError as exc:
+                await ws.send_json({"error": str(exc), "gone": not _exists(ws, sid)})
+                continue
+            if sim.error:
+                await ws.send_json({"error": sim.error})
+            else:
+                await ws.send_bytes(encode_frame(f))
+    except WebSocketDisconnect:
+        return
+
+
+def _exists(ws: WebSocket, sid: str) -> bool:
+    try:
+        ws.app.state.sessions.get(sid)
+    except MorphogenError:
+        return False
+    return True
+
+
+@router.get("/{sid}/png")
+async def png(request: Request, sid: str, cmap: str | None = None, scale: int = 1):
+    """The shown species as a PNG through the chosen colour map (a download)."""
+    sim = _sim(request, sid)
+    scale = integer(scale, "scale", 1, 4)
+    data = export.png_bytes(sim.field(), cmap or sim.cmap, scale)
+    name = f"{sim.describe()['model']}.png"
+    return Response(data, media_type="image/png", headers=_attachment(name))
+
+
+@router.get("/{sid}/config")
+async def config(request: Request, sid: str, steps: int | None = None):
+    """A run file that ``morphogen simulate --config FILE`` accepts (a download)."""
+    sim = _sim(request, sid)
+    data = export.run_config(sim, steps)
+    return Response(data, media_type="application/json",
+                    headers=_attachment(f"{sim.describe()['model']}-run.json"))
+
+
+def _attachment(name: str) -> dict[str, str]:
+    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
+    return {"Content-Disposition": f'attachment; filename="{safe}"'}

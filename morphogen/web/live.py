@@ -1,0 +1,383 @@
+"""The live simulation behind the Explore page: one per browser tab.
+
+A :class:`LiveSim` holds a state ``u`` of shape ``(S, n, n)`` on a periodic (or no-flux) grid
+and advances it by ``steps`` explicit steps per frame with the jitted
+:func:`morphogen.simulate.integrate`.
+Parameters, ``dt``, the species shown and the colour scale are *runtime* arguments of the compiled
+program, so moving a slider never recompiles; only the number of steps per frame is static, and it
+is taken from :data:`STEP_CHOICES` so each value compiles once per model and grid.
+
+A frame is the shown species quantised to ``uint8`` on the device,
+``q = clip(255 (f - lo) / (hi - lo), 0, 255)``, with ``lo``/``hi`` following the field's range
+smoothly (so the picture does not flicker); the page colours it with a 256-entry lookup table.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from morphogen.domains.grid import Grid
+from morphogen.errors import MorphogenError
+from morphogen.initial import make_initial
+from morphogen.models.model import Model
+from morphogen.simulate import OVERFLOW, integrate
+from morphogen.steppers import make_step, max_stable_dt
+from morphogen.web.catalog import check_params, resolve_model
+from morphogen.web.limits import Limits, choice, integer, number
+
+STEP_CHOICES = (1, 2, 4, 8, 16, 32, 64, 128, 256)
+"""Allowed steps per frame (each value is one compiled program)."""
+
+BOUNDARIES = ("periodic", "neumann")
+INITIAL_KINDS = ("square", "noise", "blobs", "seeds", "skaggs", "uniform")
+"""Initial conditions offered (those of :mod:`morphogen.initial` that need no file)."""
+FRAMES_TO_PATTERN = 200
+"""Default steps per frame: the model's suggested run (``t_end / dt``) in about this many
+frames, i.e. about ten seconds at 20 frames/s."""
+RANGE_EASING = 0.2
+"""Fraction of the way the colour scale moves toward the field's range each frame."""
+
+
+@dataclass
+class Engine:
+    """Compiled programs for one model on one grid, shared by every tab that shows them.
+
+    Attributes:
+        model, grid: what is simulated.
+        step: ``step(u, p, t, dt, key) -> u`` from :func:`morphogen.steppers.make_step`.
+        advance: per steps-per-frame value, the jitted frame program (see :meth:`program`).
+        paint: jitted ``paint(u, cx, cy, r, values) -> u``.
+    """
+
+    model: Model
+    grid: Grid
+    step: Callable
+    advance: dict[int, Callable] = field(default_factory=dict)
+    paint: Callable | None = None
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def program(self, n: int) -> Callable:
+        """``run(u, p, t, dt, key, show, lo, hi) -> (u, t, key, img, fmin, fmax, ok)``.
+
+        ``u`` ``(S, n, n)``; ``img`` ``(n, n)`` uint8 of species ``show``; ``ok`` is false when
+        any value is NaN, infinite or beyond the overflow bound.
+        """
+        with self.lock:
+            if n not in self.advance:
+                step = self.step
+
+                def run(u, p, t, dt, key, show, lo, hi):
+                    u, t, key = integrate(step, u, p, steps=n, dt=dt, t0=t, key=key)
+                    f = jnp.take(u, show, axis=0)
+                    ok = jnp.all(jnp.isfinite(u) & (jnp.abs(u) < OVERFLOW))
+                    scale = jnp.where(hi > lo, 255.0 / jnp.maximum(hi - lo, 1e-30), 0.0)
+                    img = jnp.clip(jnp.round((f - lo) * scale), 0, 255).astype(jnp.uint8)
+                    return u, t, key, img, jnp.min(f), jnp.max(f), ok
+
+                self.advance[n] = jax.jit(run)
+            if self.paint is None:
+                self.paint = jax.jit(_painter(self.grid))
+            return self.advance[n]
+
+
+def _painter(grid: Grid) -> Callable:
+    """``paint(u, cx, cy, r, values)``: set a disc of radius ``r`` (grid-width units) around
+    ``(cx, cy)`` in ``[0, 1]^2`` to ``values`` ``(S,)``; distances wrap around on the torus."""
+    x = jnp.asarray(grid.coords["x"])
+    y = jnp.asarray(grid.coords["y"])
+
+    def paint(u, cx, cy, r, values):
+        ddx = jnp.abs(x - cx)
+        ddy = jnp.abs(y - cy)
+        ddx = jnp.minimum(ddx, 1.0 - ddx)
+        ddy = jnp.minimum(ddy, 1.0 - ddy)
+        mask = (ddx**2 + ddy**2) <= r**2
+        return jnp.where(mask[None], values[:, None, None].astype(u.dtype), u)
+
+    return paint
+
+
+_ENGINES: OrderedDict[tuple, Engine] = OrderedDict()
+_ENGINES_LOCK = threading.Lock()
+_ENGINES_SIZE = 12
+
+
+def engine_for(model: Model, key: str, size: int, boundary: str) -> Engine:
+    """The shared :class:`Engine` of a model (by cache key) on an ``size x size`` grid."""
+    ident = (key, size, boundary)
+    with _ENGINES_LOCK:
+        if ident in _ENGINES:
+            _ENGINES.move_to_end(ident)
+            return _ENGINES[ident]
+    grid = Grid((size, size), boundary=boundary)
+    eng = Engine(model=model, grid=grid, step=make_step(model, grid, clamp=model.clamp))
+    with _ENGINES_LOCK:
+        _ENGINES[ident] = eng
+        while len(_ENGINES) > _ENGINES_SIZE:
+            _ENGINES.popitem(last=False)
+    return eng
+
+
+@dataclass
+class Frame:
+    """One picture of the live state: ``pixels`` ``(n, n)`` uint8, row 0 at the top."""
+
+    pixels: np.ndarray
+    frame: int
+    t: float
+    steps: int
+    lo: float
+    hi: float
+    compute_s: float
+
+
+class LiveSim:
+    """One tab's simulation: model, parameters, ``dt``, state and colour scale.
+
+    Every method takes the instance lock, so a frame, a paint stroke and a reset from the same
+    tab never interleave; different tabs have different instances and share nothing mutable.
+    """
+
+    def __init__(self, limits: Limits):
+        self.limits = limits
+        self.lock = threading.Lock()
+        self.last_used = time.monotonic()
+        self.error: str | None = None
+        self.frames = 0
+        self.total_steps = 0
+        self.seed = 0
+        self.init = "square"
+        self.steps_per_frame = 16
+        self.cmap = "viridis"
+        self.spec: dict[str, Any] = {"library": "gray-scott"}
+        self.size = 256
+        self.boundary = "periodic"
+
+    # -- configuration --------------------------------------------------------------------
+    def configure(self, spec: Mapping[str, Any], size: int = 256, boundary: str = "periodic",
+                  params: Mapping[str, Any] | None = None, preset: str | None = None,
+                  init: str | None = None, seed: int = 0) -> dict[str, Any]:
+        """Choose the model and grid, set parameters (defaults, a preset, then overrides) and
+        reset to initial condition ``init`` (the model's suggestion when ``None``). Validates
+        everything before changing anything."""
+        lim = self.limits
+        size = integer(size, "size", lim.min_size, lim.max_size)
+        boundary = choice(boundary, "boundary", BOUNDARIES)
+        model, key = resolve_model(spec, lim)
+        if preset is not None and preset not in model.presets:
+            model.parameters(preset=preset)  # raises the one-line error listing presets
+        values = model.parameters(check_params(params or {}, model), preset=preset or None)
+        eng = engine_for(model, key, size, boundary)
+        values = {k: float(v) for k, v in values.items()}
+        u0, init, seed = _initial(eng, values, init or _offered(model.init), seed)
+        with self.lock:
+            self.spec = dict(spec)
+            self.engine, self.size, self.boundary = eng, size, boundary
+            self.values = values
+            self.show = model.species.index(model.display_species)
+            self.dt = self._default_dt()
+            self.steps_per_frame = _default_steps(model, self.dt)
+            self._install(u0, init, seed)
+        return self.describe()
+
+    def set_params(self, values: Mapping[str, Any]) -> list[str]:
+        """Change parameter values; returns notices (e.g. ``dt`` lowered for stability)."""
+        with self.lock:
+            self._touch()
+            new = {**self.values, **check_params(values, self.engine.model)}
+            self.values = new
+            return self._fit_dt()
+
+    def set_dt(self, dt: Any) -> list[str]:
+        """Set the time step, refusing one above the explicit stability limit."""
+        with self.lock:
+            self._touch()
+            dt_max = self._dt_max()
+            self.dt = number(dt, "dt", 1e-6, dt_max)
+            return []
+
+    def set_view(self, *, species: str | None = None, steps_per_frame: Any = None,
+                 cmap: str | None = None) -> None:
+        """Species shown, steps per frame (one of :data:`STEP_CHOICES`) and colour map name."""
+        with self.lock:
+            self._touch()
+            if species is not None:
+                self.show = self.engine.model.species_index(str(species))
+                self.lo = self.hi = None
+            if steps_per_frame is not None:
+                n = integer(steps_per_frame, "steps per frame", 1, self.limits.max_steps_per_frame)
+                if n not in STEP_CHOICES:
+                    raise MorphogenError(
+                        f"steps per frame must be one of {', '.join(map(str, STEP_CHOICES))}"
+                    )
+                self.steps_per_frame = n
+            if cmap is not None:
+                from morphogen.render.colour import parse_cmap
+
+                parse_cmap(cmap)
+                self.cmap = cmap
+
+    def reset(self, init: str, seed: Any = 0) -> None:
+        """Restart from initial condition ``init`` (one of :data:`INITIAL_KINDS`)."""
+        with self.lock:
+            self._touch()
+            self._reset(init, seed)
+
+    def paint(self, x: Any, y: Any, radius: Any = 0.03, mode: str = "excite") -> None:
+        """Set a disc at ``(x, y)`` (fractions of the width and height from the top left) to the
+        model's excited state (``mode='excite'``) or its ground state (``'erase'``)."""
+        x = number(x, "x", 0.0, 1.0)
+        y = number(y, "y", 0.0, 1.0)
+        r = number(radius, "radius", 0.0, 0.5)
+        mode = choice(mode, "paint mode", ("excite", "erase"))
+        with self.lock:
+            self._touch()
+            model = self.engine.model
+            vals = model.excited_state(self.values) if mode == "excite" else \
+                model.ground_state(self.values)
+            self.engine.program(self.steps_per_frame)
+            # row 0 of the picture is y = 0 of the grid (images are drawn top-down)
+            self.u = self.engine.paint(self.u, x, y, r, jnp.asarray(vals, jnp.float32))
+            self.error = None
+
+    # -- stepping ---------------------------------------------------------------------------
+    def frame(self) -> Frame:
+        """Advance ``steps_per_frame`` steps and return the picture.
+
+        On blow-up the previous state is kept, the simulation pauses and :attr:`error` says
+        what happened (the page shows it); a later reset, paint or smaller ``dt`` resumes it.
+        """
+        with self.lock:
+            self._touch()
+            n = self.steps_per_frame
+            if self.error is None:
+                start = time.perf_counter()
+                run = self.engine.program(n)
+                p = {k: jnp.asarray(v, jnp.float32) for k, v in self.values.items()}
+                lo, hi = self._scale()
+                u, t, key, img, fmin, fmax, ok = run(
+                    self.u, p, self.t, jnp.float32(self.dt), self.key, self.show, lo, hi
+                )
+                if bool(ok):
+                    self.u, self.t, self.key = u, t, key
+                    self.pixels = np.asarray(img)
+                    self._follow(float(fmin), float(fmax))
+                    self.total_steps += n
+                    self.frames += 1
+                else:
+                    self.error = (
+                        f"the simulation blew up (NaN or overflow) within {n} steps after "
+                        f"t={float(self.t):g}; lower dt, change the parameters or reset"
+                    )
+                self.compute_s = time.perf_counter() - start
+            return Frame(self.pixels, self.frames, float(self.t), self.total_steps,
+                         float(self.lo), float(self.hi), self.compute_s)
+
+    def field(self) -> np.ndarray:
+        """The shown species as a float array ``(n, n)``."""
+        with self.lock:
+            return np.asarray(self.u[self.show], np.float64)
+
+    def state(self) -> np.ndarray:
+        """The whole state ``(S, n, n)`` as float32."""
+        with self.lock:
+            return np.asarray(self.u, np.float32)
+
+    # -- description ------------------------------------------------------------------------
+    def describe(self) -> dict[str, Any]:
+        """Settings as JSON (the page rebuilds its controls from this)."""
+        model = self.engine.model
+        return {
+            "model": model.name,
+            "spec": self.spec,
+            "species": list(model.species),
+            "show": model.species[self.show],
+            "params": dict(self.values),
+            "dt": self.dt,
+            "dt_max": self._dt_max(),
+            "size": self.size,
+            "boundary": self.boundary,
+            "init": self.init,
+            "seed": self.seed,
+            "steps_per_frame": self.steps_per_frame,
+            "cmap": self.cmap,
+            "t": float(self.t),
+            "steps": self.total_steps,
+            "error": self.error,
+            "step_choices": list(STEP_CHOICES),
+            "init_kinds": list(INITIAL_KINDS),
+        }
+
+    # -- internals --------------------------------------------------------------------------
+    def _touch(self) -> None:
+        self.last_used = time.monotonic()
+
+    def _reset(self, init: str, seed: Any) -> None:
+        self._install(*_initial(self.engine, self.values, init, seed))
+
+    def _install(self, u0: np.ndarray, init: str, seed: int) -> None:
+        self.u = jnp.asarray(u0, jnp.float32)
+        self.t = jnp.float32(0.0)
+        self.key = jax.random.PRNGKey(seed)
+        self.init, self.seed = init, seed
+        self.total_steps = 0
+        self.frames = 0
+        self.error = None
+        self.lo = self.hi = None
+        self.compute_s = 0.0
+        self.pixels = np.zeros((self.size, self.size), np.uint8)
+
+    def _dt_max(self) -> float:
+        return max_stable_dt(self.engine.model, self.engine.grid, self.values)
+
+    def _default_dt(self) -> float:
+        """The model's suggested ``dt``, lowered below the explicit stability limit if needed."""
+        return float(min(self.engine.model.dt, 0.95 * self._dt_max()))
+
+    def _fit_dt(self) -> list[str]:
+        dt_max = self._dt_max()
+        if self.dt > dt_max:
+            self.dt = 0.95 * dt_max
+            return [f"dt lowered to {self.dt:.4g} to stay below the stability limit {dt_max:.4g}"]
+        return []
+
+    def _scale(self) -> tuple[np.float32, np.float32]:
+        if self.lo is None:
+            f = np.asarray(self.u[self.show])
+            self.lo, self.hi = float(f.min()), float(f.max())
+        return np.float32(self.lo), np.float32(self.hi)
+
+    def _follow(self, fmin: float, fmax: float) -> None:
+        """Ease the colour scale toward ``[fmin, fmax]`` (jumping out at once if exceeded)."""
+        lo = self.lo + RANGE_EASING * (fmin - self.lo)
+        hi = self.hi + RANGE_EASING * (fmax - self.hi)
+        self.lo, self.hi = min(lo, fmin), max(hi, fmax)
+
+
+def _offered(kind: str) -> str:
+    """The model's suggested initial condition if the page offers it, else ``square``."""
+    return kind if kind in INITIAL_KINDS else "square"
+
+
+def _default_steps(model: Model, dt: float) -> int:
+    """The step choice nearest ``t_end / dt / FRAMES_TO_PATTERN``, between 4 and 64."""
+    want = model.t_end / dt / FRAMES_TO_PATTERN
+    options = [n for n in STEP_CHOICES if 4 <= n <= 64]
+    return min(options, key=lambda n: abs(np.log(n / max(want, 1e-9))))
+
+
+def _initial(eng: Engine, values: Mapping[str, float], init: Any,
+             seed: Any) -> tuple[np.ndarray, str, int]:
+    """Validated initial condition: ``(u0 (S, n, n), init, seed)``."""
+    init = choice(init, "initial condition", INITIAL_KINDS)
+    seed = integer(seed, "seed", 0, 2**31 - 1)
+    return make_initial(init, eng.model, eng.grid, values, seed=seed), init, seed
