@@ -44,7 +44,9 @@ class Noise:
 
     def __post_init__(self) -> None:
         if self.kind not in ("additive", "multiplicative"):
-            raise MorphogenError(f"noise kind must be additive or multiplicative, not {self.kind!r}")
+            raise MorphogenError(
+                f"noise kind must be additive or multiplicative, not {self.kind!r}"
+            )
         if not (np.isfinite(self.amplitude) and self.amplitude >= 0):
             raise MorphogenError(f"noise amplitude must be >= 0, got {self.amplitude}")
 

@@ -67,7 +67,8 @@ class Grid:
     Args:
         shape: cells per axis, 2 or 3 axes, each at least 3.
         dx: cell spacing (the same on every axis).
-        boundary: one spec for all species, or a mapping species -> spec (others periodic).
+        boundary: one spec for all species, or a mapping species -> spec (key ``"*"`` for the
+            rest, periodic if absent).
         stencil: Laplacian stencil: ``5`` or ``9`` points in 2D, ``7`` in 3D.
     """
 
@@ -116,13 +117,14 @@ class Grid:
     def boundaries(self, species: Sequence[str]) -> tuple[Boundary, ...]:
         """The boundary condition of each species, in order."""
         if isinstance(self.boundary, Mapping):
-            unknown = set(self.boundary) - set(species)
+            unknown = set(self.boundary) - set(species) - {"*"}
             if unknown:
                 raise MorphogenError(
                     f"boundary given for unknown species {sorted(unknown)}; species are "
                     + ", ".join(species)
                 )
-            return tuple(Boundary.parse(self.boundary.get(s, "periodic")) for s in species)
+            default = self.boundary.get("*", "periodic")
+            return tuple(Boundary.parse(self.boundary.get(s, default)) for s in species)
         return tuple(Boundary.parse(self.boundary) for _ in species)
 
     @cached_property

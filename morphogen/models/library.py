@@ -112,7 +112,7 @@ def _gm_reaction(u, p, c):
 
 
 def _gm_ground(p) -> tuple[float, float]:
-    """Homogeneous state of Skaggs eqs. 2.5-2.6: ``kappa mu v^3 + mu v - nu = 0``, ``u = v^2/nu``."""
+    """Homogeneous state of Skaggs eqs. 2.5-2.6: ``kappa mu v^3 + mu v = nu``, ``u = v^2/nu``."""
     roots = np.roots([p["kappa"] * p["mu"], 0.0, p["mu"], -p["nu"]])
     v = float(max(r.real for r in roots if abs(r.imag) < 1e-9))
     return (v * v / p["nu"], v)

@@ -1,0 +1,221 @@
+"""A run as data: :class:`RunConfig` -> outputs, and ``run.json`` to reproduce it exactly.
+
+``run.json`` holds the whole configuration (model name or the model file's text, parameter
+overrides, domain, dt, steps, scheme, seed, initial condition, noise, clamp, rendering) plus
+provenance (package versions, device, wall time). ``morphogen simulate --config run.json``
+rebuilds the same :class:`RunConfig` and so the same state, bit for bit on the same machine.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import time
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from morphogen.domains.grid import Grid
+from morphogen.errors import MorphogenError
+from morphogen.fields import resolve_params
+from morphogen.initial import make_initial
+from morphogen.io import ensure_writable_dir, write_json
+from morphogen.models.model import Model
+from morphogen.simulate import Solution, simulate
+from morphogen.steppers import Noise
+
+FORMAT = "morphogen-run/1"
+
+
+@dataclass
+class RunConfig:
+    """Everything that determines a simulation and its pictures.
+
+    ``steps`` or ``time`` may be ``None``: the model's suggested ``t_end`` and ``dt`` fill in.
+    ``clamp`` is ``"model"`` (the model's own bounds), ``None`` or ``[lo, hi]``.
+    """
+
+    model: str
+    model_source: str | None = None
+    preset: str | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+    size: list[int] = field(default_factory=lambda: [256, 256])
+    mesh: str | None = None
+    dx: float = 1.0
+    boundary: Any = "periodic"
+    stencil: int | None = None
+    dt: float | None = None
+    steps: int | None = None
+    time: float | None = None
+    scheme: str = "euler"
+    seed: int = 0
+    init: str | None = None
+    init_options: dict[str, Any] = field(default_factory=dict)
+    noise: dict[str, Any] | None = None
+    clamp: Any = "model"
+    every: int | None = None
+    species: str | None = None
+    cmap: str = "viridis"
+    vmin: float | None = None
+    vmax: float | None = None
+    threshold: float | None = None
+    fps: float = 12.0
+    animation: str = "gif"
+    unsafe: bool = False
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> RunConfig:
+        """Rebuild a config from ``run.json``'s ``config`` object (unknown keys are an error)."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise MorphogenError(f"run file has unknown settings {unknown}")
+        if "model" not in data:
+            raise MorphogenError("run file lacks the 'model' setting")
+        return cls(**data)
+
+
+def load_run_file(path: str | Path) -> RunConfig:
+    """Read ``run.json`` (as written by :func:`execute`) into a :class:`RunConfig`."""
+    try:
+        data = json.loads(Path(path).read_text())
+    except OSError as exc:
+        raise MorphogenError(f"cannot read run file {path}: {exc.strerror}") from None
+    except json.JSONDecodeError as exc:
+        raise MorphogenError(
+            f"run file {path} is not valid JSON: {exc.msg} (line {exc.lineno})"
+        ) from None
+    if not isinstance(data, dict) or not isinstance(data.get("config"), dict):
+        raise MorphogenError(f"{path} is not a morphogen run file (no 'config' object)")
+    return RunConfig.from_dict(data["config"])
+
+
+@dataclass
+class Prepared:
+    """A config resolved into objects, ready to run."""
+
+    config: RunConfig
+    model: Model
+    domain: Any
+    params: dict[str, np.ndarray]
+    u0: np.ndarray
+    dt: float
+    steps: int
+
+
+def load_config_model(config: RunConfig) -> Model:
+    """The model of a config: from the embedded file text when present, else by name/path."""
+    from morphogen.models.equations import load_model, parse_model
+
+    if config.model_source is not None:
+        return parse_model(config.model_source, path=config.model)
+    return load_model(config.model)
+
+
+def build_domain(config: RunConfig, model: Model) -> Any:
+    """A :class:`Grid` from ``size``/``dx``/``boundary``/``stencil``, or a mesh from ``mesh``."""
+    if config.mesh:
+        from morphogen.domains.mesh import load_mesh
+
+        return load_mesh(config.mesh)
+    grid = Grid(tuple(config.size), dx=config.dx, boundary=config.boundary,
+                stencil=config.stencil)
+    grid.boundaries(model.species)
+    return grid
+
+
+def prepare(config: RunConfig) -> Prepared:
+    """Validate and resolve everything before any output is written."""
+    model = load_config_model(config)
+    domain = build_domain(config, model)
+    values = model.parameters(config.params, preset=config.preset)
+    params = resolve_params(model, domain, values)
+    dt = float(config.dt if config.dt is not None else model.dt)
+    if config.steps is not None and config.time is not None:
+        raise MorphogenError("give either --steps or --time, not both")
+    if config.steps is not None:
+        steps = int(config.steps)
+    else:
+        total = config.time if config.time is not None else model.t_end
+        steps = int(round(total / dt))
+    if steps < 1:
+        raise MorphogenError(f"the run needs at least one step (got {steps})")
+    if config.species is not None:
+        model.species_index(config.species)
+    u0 = make_initial(config.init or model.init, model, domain, values, seed=config.seed,
+                      **config.init_options)
+    return Prepared(config, model, domain, params, u0, dt, steps)
+
+
+def run_prepared(prep: Prepared, *, progress: bool = False) -> Solution:
+    """Simulate a prepared run."""
+    c = prep.config
+    noise = Noise(**c.noise) if c.noise else None
+    clamp = tuple(c.clamp) if isinstance(c.clamp, list | tuple) else c.clamp
+    return simulate(
+        prep.model, prep.domain, prep.u0, prep.params, steps=prep.steps, dt=prep.dt,
+        scheme=c.scheme, noise=noise, clamp=clamp, seed=c.seed, every=c.every,
+        progress=progress, unsafe=c.unsafe,
+    )
+
+
+def execute(config: RunConfig, out: str | Path, *, progress: bool = False) -> Solution:
+    """Prepare, simulate and write ``state.npz``, ``final.png``, ``run.json`` (and an
+    animation when snapshots were taken) into ``out``."""
+    from morphogen.outputs import write_outputs
+
+    prep = prepare(config)
+    out_dir = ensure_writable_dir(out)
+    started = time.perf_counter()
+    solution = run_prepared(prep, progress=progress)
+    write_outputs(out_dir, prep, solution)
+    write_json(out_dir / "run.json", run_record(prep, solution, time.perf_counter() - started))
+    return solution
+
+
+def run_record(prep: Prepared, solution: Solution, wall: float) -> dict[str, Any]:
+    """The JSON written to ``run.json``."""
+    import jax
+
+    config = asdict(prep.config)
+    if prep.model.source is not None:
+        config["model_source"] = prep.model.source
+    return {
+        "format": FORMAT,
+        "config": config,
+        "resolved": {
+            "model": prep.model.name,
+            "species": list(prep.model.species),
+            "params": {k: _describe(v) for k, v in prep.params.items()},
+            "dt": prep.dt,
+            "steps": prep.steps,
+            "t_end": solution.t,
+            "clamp": prep.model.clamp if prep.config.clamp == "model" else prep.config.clamp,
+        },
+        "provenance": {
+            "morphogen": _version("morphogen"),
+            "jax": jax.__version__,
+            "numpy": np.__version__,
+            "python": platform.python_version(),
+            "device": str(jax.devices()[0]),
+            "wall_time_s": round(wall, 3),
+        },
+    }
+
+
+def _describe(value: np.ndarray) -> Any:
+    arr = np.asarray(value)
+    if arr.ndim == 0:
+        return float(arr)
+    return {"field": list(arr.shape), "min": float(arr.min()), "max": float(arr.max())}
+
+
+def _version(package: str) -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(package)
+    except PackageNotFoundError:
+        return "unknown"
