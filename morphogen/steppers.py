@@ -74,15 +74,22 @@ def make_step(
     """One time step ``step(u, p, t, dt, key) -> u`` (pure, jit- and grad-friendly).
 
     Dirichlet values are re-imposed after every step; ``clamp`` (Skaggs §3.2's ``[0, 5]``)
-    bounds values only when asked.
+    bounds values only when asked. A domain with stochastic diffusion (``domain.stochastic``
+    true, e.g. a mesh with Ringham's ``omega``) adds ``domain.diffusion_noise(u, D, bcs, dt,
+    key)``, evaluated at the step's starting state, after the deterministic update.
     """
     if scheme not in SCHEMES:
         raise MorphogenError(f"unknown scheme {scheme!r}; use one of {', '.join(SCHEMES)}")
     rhs = make_rhs(model, domain)
     bcs = domain.boundaries(model.species)
     noise_mask = _noise_mask(model, noise)
+    flux_noise = domain.diffusion_noise if getattr(domain, "stochastic", False) else None
+    coords = {k: jnp.asarray(v) for k, v in domain.coords.items()}
 
     def step(u: Array, p: Params, t: Array, dt: Array, key: Array) -> Array:
+        if flux_noise is not None:
+            key, sub = jax.random.split(key)
+            du = flux_noise(u, model.diffusion(p, {**coords, "t": t}), bcs, dt, sub)
         if scheme == "euler":
             u = u + dt * rhs(u, p, t)
         else:
@@ -96,6 +103,8 @@ def make_step(
             xi = jax.random.normal(key, u.shape, u.dtype) * mask
             scale = noise.amplitude * jnp.sqrt(dt)
             u = u + scale * (xi if noise.kind == "additive" else u * xi)
+        if flux_noise is not None:
+            u = u + du
         if clamp is not None:
             u = jnp.clip(u, clamp[0], clamp[1])
         return domain.hold(u, bcs)
