@@ -18,6 +18,9 @@ COMMANDS = (
     "morphogen.cli.models_cmd",
     "morphogen.cli.simulate_cmd",
     "morphogen.cli.atlas_cmd",
+    "morphogen.cli.serve_cmd",
+    "morphogen.cli.evolve_cmd",
+    "morphogen.cli.runs_cmd",
 )
 """Modules that provide sub-commands, in the order ``--help`` lists them."""
 

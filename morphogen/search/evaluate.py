@@ -1,0 +1,265 @@
+"""Evaluation: genomes in, fitness out, as one batched simulation per population.
+
+A :class:`Problem` is the plain-data description of what a genome means — model, genes, fixed
+parameters, grid, time stepping, initial condition and fitness — so it can be saved with a run,
+sent to Ray workers and rebuilt anywhere. :class:`Evaluator` turns it into
+
+.. code-block:: python
+
+    evaluate(genomes (P, G), key) -> (fitness (P,), metrics)
+
+by running the whole population as one ``jit(vmap(integrate))`` program, in chunks of steps so
+a progress bar can move between them. Every individual ``i`` gets its own key
+``fold_in(key, i)``, so results do not depend on how a population is split into batches.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from functools import lru_cache
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from morphogen.domains.grid import Grid
+from morphogen.errors import MorphogenError
+from morphogen.fields import resolve_params
+from morphogen.models.model import Model
+from morphogen.search import fitness as fit
+from morphogen.search.genes import Gene, check_genes
+from morphogen.simulate import integrate
+from morphogen.steppers import check_stability, make_step, max_stable_dt
+
+FITNESS_KINDS = ("dirichlet", "target", "user")
+CHUNK = 250
+"""Steps per compiled chunk between progress updates."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """What to simulate for a genome and how to score it (JSON-serialisable).
+
+    The simulation settings have the names and meanings of
+    :class:`morphogen.runfile.RunConfig`, so an individual can be written out as a ``run.json``
+    that ``morphogen simulate --config`` reproduces.
+
+    Attributes:
+        model: library name or model file path; ``model_source`` the file's text, so the
+            problem is rebuilt without the file (on a Ray worker, or after the file changed).
+        genes: the searched parameters (scalars).
+        preset, params: fixed parameter values (a preset, then overrides; numbers or
+            expressions of ``x, y, z``, resolved with the model's default values).
+        size, dx, boundary, stencil: the grid (:class:`morphogen.domains.grid.Grid`).
+        dt, steps, scheme: time stepping; ``clamp`` is ``"model"`` (the model's own bounds),
+            ``None`` or ``[lo, hi]`` (Skaggs §3.2 clamps to ``[0, 5]``).
+        seed, init, init_options: the initial condition
+            (:func:`morphogen.initial.make_initial`); every individual starts from the same one
+            (up to its own ground state).
+        fitness: one of :data:`FITNESS_KINDS`; ``target`` the image for ``"target"``;
+            ``flat_tol`` the relative spread below which a state counts as uniform.
+    """
+
+    model: str
+    genes: tuple[Gene, ...]
+    model_source: str | None = None
+    preset: str | None = None
+    params: Mapping[str, Any] = field(default_factory=dict)
+    size: tuple[int, ...] = (128, 128)
+    dx: float = 1.0
+    boundary: Any = "periodic"
+    stencil: int | None = None
+    dt: float = 1.0
+    steps: int = 1000
+    scheme: str = "euler"
+    clamp: Any = "model"
+    seed: int = 0
+    init: str = "skaggs"
+    init_options: Mapping[str, Any] = field(default_factory=dict)
+    fitness: str = "dirichlet"
+    target: str | None = None
+    flat_tol: float = 1e-3
+
+    def __post_init__(self) -> None:
+        if self.fitness not in FITNESS_KINDS:
+            raise MorphogenError(
+                f"unknown fitness {self.fitness!r}; use one of {', '.join(FITNESS_KINDS)}"
+            )
+        if self.fitness == "target" and not self.target:
+            raise MorphogenError("--fitness target needs --target IMAGE")
+        if self.steps < 1:
+            raise MorphogenError(f"steps must be >= 1, got {self.steps}")
+        if not (np.isfinite(self.dt) and self.dt > 0):
+            raise MorphogenError(f"dt must be a positive number, got {self.dt}")
+
+    def to_dict(self) -> dict[str, Any]:
+        data = asdict(self)
+        data["genes"] = [g.to_dict() for g in self.genes]
+        data["size"] = list(self.size)
+        data["params"] = dict(self.params)
+        data["init_options"] = dict(self.init_options)
+        data["clamp"] = list(self.clamp) if isinstance(self.clamp, list | tuple) else self.clamp
+        return data
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Problem:
+        data = dict(data)
+        data["genes"] = tuple(Gene.from_dict(g) for g in data["genes"])
+        data["size"] = tuple(int(n) for n in data["size"])
+        return cls(**data)
+
+    def clamp_bounds(self, model: Model) -> tuple[float, float] | None:
+        """The clamp as ``(lo, hi)`` or ``None``."""
+        value = model.clamp if self.clamp == "model" else self.clamp
+        return tuple(float(v) for v in value) if value is not None else None
+
+
+def load_problem_model(problem: Problem) -> Model:
+    """The problem's model: parsed from the saved source when there is one."""
+    if problem.model_source is not None:
+        from morphogen.models.equations import parse_model
+
+        return parse_model(problem.model_source, path=problem.model)
+    from morphogen.models.equations import load_model
+
+    return load_model(problem.model)
+
+
+def individual_keys(key: Any, n: int, start: int = 0) -> np.ndarray:
+    """Keys ``fold_in(key, i)`` for ``i = start .. start + n - 1``, shape ``(n, 2)`` uint32."""
+    idx = jnp.arange(start, start + n)
+    return np.asarray(jax.vmap(lambda i: jax.random.fold_in(key, i))(idx))
+
+
+class Evaluator:
+    """A problem made runnable: ``evaluator(genomes, key) -> (fitness, metrics)``.
+
+    ``metrics`` holds ``valid`` (``(P,)`` bool: finite, bounded and within the stability limit)
+    and ``fields``, the final display species, shape ``(P, *spatial)`` (for contact sheets).
+    With ``fitness="user"`` the fitness is :data:`~morphogen.search.fitness.FLAT` for valid
+    individuals and :data:`~morphogen.search.fitness.INVALID` otherwise, to be replaced by a
+    person's choice (:func:`~morphogen.search.fitness.human_fitness`).
+    """
+
+    def __init__(self, problem: Problem):
+        self.problem = problem
+        self.model = load_problem_model(problem)
+        check_genes(problem.genes, list(self.model.params))
+        self.domain = Grid(problem.size, problem.dx, problem.boundary, problem.stencil)
+        self.domain.boundaries(self.model.species)
+        values = self.model.parameters(dict(problem.params), preset=problem.preset)
+        self.base = resolve_params(self.model, self.domain, values)
+        check_stability(self.model, self.domain, self.base, problem.dt, problem.scheme)
+        self.display = self.model.species_index(self.model.display_species)
+        self._step = make_step(self.model, self.domain, scheme=problem.scheme,
+                               clamp=problem.clamp_bounds(self.model))
+        self._score = self._fitness_fn()
+
+    def __call__(self, genomes: Any, key: Any, progress: Callable[[int], None] | None = None,
+                 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        genomes = np.asarray(genomes, np.float32)
+        return self.evaluate_keys(genomes, individual_keys(key, genomes.shape[0]), progress)
+
+    def evaluate_keys(
+        self, genomes: np.ndarray, keys: np.ndarray, progress: Callable[[int], None] | None = None
+    ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Evaluate ``genomes`` ``(P, G)`` with one key per individual, ``keys`` ``(P, 2)``.
+
+        ``progress(n)`` is called after every chunk of ``n`` steps.
+        """
+        genomes = np.asarray(genomes, np.float32)
+        if genomes.ndim != 2 or genomes.shape[1] != len(self.problem.genes):
+            raise MorphogenError(
+                f"genomes must have shape (P, {len(self.problem.genes)}), got {genomes.shape}"
+            )
+        params = self.population_params(genomes)
+        u = jnp.asarray(self.initial_states(genomes))
+        keys = jnp.asarray(keys)
+        t = jnp.asarray(0.0, u.dtype)
+        done = 0
+        while done < self.problem.steps:
+            m = min(CHUNK, self.problem.steps - done)
+            u, ts, keys = self._advance(m)(u, params, t, keys)
+            t = ts[0]
+            done += m
+            if progress is not None:
+                progress(m)
+        stable = self.stable(genomes)
+        score = np.asarray(self._score(u), np.float32)
+        valid = np.asarray(jax.vmap(fit.is_valid)(u)) & stable
+        fitness = np.where(valid, score, np.float32(fit.INVALID)).astype(np.float32)
+        fields = np.asarray(u[:, self.display], np.float32)
+        return fitness, {"valid": valid, "fields": fields}
+
+    def population_params(self, genomes: np.ndarray) -> dict[str, Any]:
+        """Model parameters with a leading population axis ``P`` (genes set per individual)."""
+        n = genomes.shape[0]
+        out = {k: jnp.broadcast_to(jnp.asarray(v, jnp.float32), (n, *np.shape(v)))
+               for k, v in self.base.items()}
+        for j, gene in enumerate(self.problem.genes):
+            out[gene.name] = jnp.asarray(genomes[:, j])
+        return out
+
+    def genome_parameters(self, genome: Sequence[float]) -> dict[str, float]:
+        """All parameter values of one individual: the base set with its genes applied."""
+        p = dict(self.base)
+        for gene, v in zip(self.problem.genes, genome, strict=True):
+            p[gene.name] = float(v)
+        return p
+
+    def stable(self, genomes: np.ndarray) -> np.ndarray:
+        """Whether ``dt`` is within each individual's explicit stability limit, ``(P,)``."""
+        dt, scheme = self.problem.dt, self.problem.scheme
+        return np.array([
+            dt <= max_stable_dt(self.model, self.domain, self.genome_parameters(g), scheme)
+            for g in genomes
+        ])
+
+    def initial_states(self, genomes: np.ndarray) -> np.ndarray:
+        """Initial states ``(P, S, *spatial)``; built once per distinct ground state."""
+        from morphogen.initial import make_initial
+
+        p = self.problem
+        cache: dict[bytes, np.ndarray] = {}
+        out = []
+        for g in genomes:
+            params = self.genome_parameters(g)
+            tag = np.concatenate([self.model.ground_state(params),
+                                  self.model.excited_state(params)]).tobytes()
+            if tag not in cache:
+                cache[tag] = make_initial(p.init, self.model, self.domain, params,
+                                          seed=p.seed, **dict(p.init_options))
+            out.append(cache[tag])
+        return np.stack(out)
+
+    def _advance(self, steps: int) -> Callable:
+        return _advance_fn(self._step, steps, float(self.problem.dt))
+
+    def _fitness_fn(self) -> Callable:
+        p = self.problem
+        periodic = all(b.kind == "periodic" for b in self.domain.boundaries(self.model.species))
+        if p.fitness == "dirichlet":
+            return jax.jit(fit.dirichlet_fitness(periodic, p.flat_tol))
+        if p.fitness == "target":
+            target = fit.load_target(p.target, p.size)
+            return jax.jit(fit.target_fitness(target, self.display, flat_tol=p.flat_tol))
+        flat = jax.vmap(lambda u: jnp.asarray(fit.FLAT, jnp.float32))
+        return jax.jit(flat)
+
+
+@lru_cache(maxsize=64)
+def _advance_fn(step: Callable, steps: int, dt: float) -> Callable:
+    def run(u, p, t, key):
+        return integrate(step, u, p, steps=steps, dt=dt, t0=t, key=key)
+
+    return jax.jit(jax.vmap(run, in_axes=(0, 0, None, 0)))
+
+
+@lru_cache(maxsize=8)
+def cached_evaluator(problem_json: str) -> Evaluator:
+    """One :class:`Evaluator` per problem per process (Ray workers reuse it between batches)."""
+    import json
+
+    return Evaluator(Problem.from_dict(json.loads(problem_json)))

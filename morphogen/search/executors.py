@@ -1,0 +1,122 @@
+"""Where a generation is evaluated: in this process, or split into batches over Ray workers.
+
+An executor has ``evaluate(genomes (P, G), key, update) -> (fitness (P,), metrics)`` and says
+how its progress is counted (``unit``, ``total(P)``); ``update(n)`` is called as work is done.
+Both executors give each individual the key ``fold_in(key, i)`` (see
+:func:`morphogen.search.evaluate.individual_keys`), so they return the same fitness.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from morphogen.errors import MorphogenError
+from morphogen.search.evaluate import Evaluator, Problem, cached_evaluator, individual_keys
+
+Update = Callable[[int], None]
+EXECUTORS = ("local", "ray")
+
+
+class LocalExecutor:
+    """The whole population as one batched simulation in this process."""
+
+    name = "local"
+    unit = "step"
+
+    def __init__(self, problem: Problem):
+        self.problem = problem
+        self.evaluator = Evaluator(problem)
+
+    def total(self, population: int) -> int:
+        return self.problem.steps
+
+    def evaluate(self, genomes: np.ndarray, key: Any, update: Update | None = None,
+                 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        return self.evaluator(genomes, key, update)
+
+
+def _evaluate_batch(problem_json: str, genomes: np.ndarray, keys: np.ndarray,
+                    ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Body of a Ray task: evaluate one batch (the evaluator is built once per worker)."""
+    return cached_evaluator(problem_json).evaluate_keys(genomes, keys)
+
+
+class RayExecutor:
+    """Each generation split into ``batches`` Ray tasks, each one batched simulation.
+
+    Args:
+        address: a running cluster (``ray://host:10001`` or ``host:6379``); ``None`` starts a
+            local Ray on this machine.
+        batches: tasks per generation; by default one per CPU of the cluster.
+        num_cpus: CPUs of a local Ray started here.
+
+    Ray's usage statistics are switched off and no dashboard is started.
+    """
+
+    name = "ray"
+    unit = "individual"
+
+    def __init__(self, problem: Problem, *, address: str | None = None,
+                 batches: int | None = None, num_cpus: int | None = None):
+        os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+        try:
+            import ray
+        except ImportError:
+            raise MorphogenError(
+                "--executor ray needs the 'ray' package: pip install ray"
+            ) from None
+        self._ray = ray
+        self.problem = problem
+        self._json = json.dumps(problem.to_dict(), sort_keys=True)
+        Evaluator(problem)  # validate here, before any task is sent
+        if not ray.is_initialized():
+            try:
+                ray.init(address=address, num_cpus=num_cpus, include_dashboard=False,
+                         log_to_driver=False, configure_logging=False)
+            except (ConnectionError, RuntimeError, ValueError) as exc:
+                where = address or "a local Ray"
+                raise MorphogenError(f"cannot start or reach {where}: {exc}") from None
+        cpus = int(ray.cluster_resources().get("CPU", 1))
+        if batches is not None and batches < 1:
+            raise MorphogenError(f"--batches must be >= 1, got {batches}")
+        self.batches = batches or max(1, cpus)
+        self._task = ray.remote(num_cpus=1)(_evaluate_batch)
+
+    def total(self, population: int) -> int:
+        return population
+
+    def evaluate(self, genomes: np.ndarray, key: Any, update: Update | None = None,
+                 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        ray = self._ray
+        genomes = np.asarray(genomes, np.float32)
+        keys = individual_keys(key, genomes.shape[0])
+        parts = [p for p in np.array_split(np.arange(genomes.shape[0]), self.batches) if p.size]
+        pending = {self._task.remote(self._json, genomes[p], keys[p]): p for p in parts}
+        fitness = np.zeros(genomes.shape[0], np.float32)
+        valid = np.zeros(genomes.shape[0], bool)
+        fields: np.ndarray | None = None
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=1)
+            idx = pending.pop(done[0])
+            f, m = ray.get(done[0])
+            fitness[idx], valid[idx] = f, m["valid"]
+            if fields is None:
+                fields = np.zeros((genomes.shape[0], *m["fields"].shape[1:]), np.float32)
+            fields[idx] = m["fields"]
+            if update is not None:
+                update(idx.size)
+        return fitness, {"valid": valid, "fields": fields}
+
+
+def make_executor(name: str, problem: Problem, **options: Any) -> LocalExecutor | RayExecutor:
+    """An executor by name (:data:`EXECUTORS`); ``options`` go to :class:`RayExecutor`."""
+    if name == "local":
+        return LocalExecutor(problem)
+    if name == "ray":
+        return RayExecutor(problem, **options)
+    raise MorphogenError(f"unknown executor {name!r}; use one of {', '.join(EXECUTORS)}")

@@ -1,0 +1,215 @@
+"""The generation loop: ask, evaluate, (ask a person,) tell, record; resumable after a crash.
+
+Randomness is a pure function of the run's seed and the generation number:
+
+- strategy initialisation: ``fold_in(PRNGKey(seed), 0)``
+- ask in generation ``g``: ``fold_in(fold_in(PRNGKey(seed), 1), g)``
+- evaluation in generation ``g``: ``fold_in(fold_in(PRNGKey(seed), 2), g)``
+
+and the strategy's whole state after each generation is stored with that generation in the
+archive. A run resumed from generation ``g`` therefore continues exactly as the uninterrupted
+run would have: same genomes, same fitness, same final result.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import jax
+import numpy as np
+
+from morphogen.errors import MorphogenError
+from morphogen.io import ensure_writable_dir, write_json
+from morphogen.progress import ProgressBar
+from morphogen.search import report
+from morphogen.search.archive import CONFIG, Archive, Generation, new_run_id
+from morphogen.search.cmaes import CMAES
+from morphogen.search.evaluate import Problem
+from morphogen.search.executors import LocalExecutor, RayExecutor
+from morphogen.search.fitness import human_fitness
+from morphogen.search.ga import GeneticAlgorithm
+from morphogen.search.strategy import Strategy, state_from_arrays, state_to_arrays
+
+STRATEGIES: dict[str, Callable[..., Strategy]] = {"ga": GeneticAlgorithm, "cmaes": CMAES}
+"""Strategy classes by command-line name; options are their dataclass fields."""
+
+BEST_KEPT = 3
+"""Number of best individuals written to ``best/``."""
+
+Select = Callable[[str, int], Sequence[int]]
+"""``select(contact_sheet_path, population) -> chosen indices`` for human fitness."""
+
+
+@dataclass
+class RunResult:
+    """The outcome of a run: its id and directory, and the best individual."""
+
+    run_id: str
+    directory: Path
+    best_genome: np.ndarray
+    best_fitness: float
+    generations: int
+
+
+def make_strategy(spec: Mapping[str, Any]) -> Strategy:
+    """A strategy from ``{"name": "ga", "population": 30, ...options}``."""
+    spec = dict(spec)
+    name = spec.pop("name")
+    if name not in STRATEGIES:
+        raise MorphogenError(f"unknown strategy {name!r}; use one of {', '.join(STRATEGIES)}")
+    population = spec.pop("population")
+    try:
+        return STRATEGIES[name](population_size=int(population), **spec)
+    except TypeError as exc:
+        raise MorphogenError(f"bad option for strategy {name}: {exc}") from None
+
+
+def start(
+    problem: Problem,
+    strategy: Mapping[str, Any],
+    *,
+    generations: int,
+    seed: int = 0,
+    out: str | Path | None = None,
+    archive: Archive | None = None,
+    cmap: str = "viridis",
+) -> tuple[str, Path]:
+    """Create a run: its directory with ``config.json`` and its row in the archive.
+
+    Everything is validated first (strategy, problem) so nothing is written for bad input.
+    """
+    if generations < 1:
+        raise MorphogenError(f"generations must be >= 1, got {generations}")
+    make_strategy(strategy)
+    archive = archive or Archive()
+    run_id = new_run_id(Path(problem.model).stem)
+    directory = Path(out) if out else archive.path.parent / run_id
+    if (directory / CONFIG).exists():
+        raise MorphogenError(
+            f"{directory} already holds a run; resume it with --resume {directory} or choose "
+            "another --out"
+        )
+    ensure_writable_dir(directory)
+    config = {
+        "id": run_id,
+        "archive": str(archive.path),
+        "seed": int(seed),
+        "generations": int(generations),
+        "strategy": dict(strategy),
+        "problem": problem.to_dict(),
+        "cmap": cmap,
+    }
+    write_json(directory / CONFIG, config)
+    archive.create_run(run_id, directory, config)
+    return run_id, directory
+
+
+def evolve(
+    run_id: str,
+    archive: Archive,
+    executor: LocalExecutor | RayExecutor,
+    *,
+    select: Select | None = None,
+    progress: bool = False,
+    log: Callable[[str], Any] = print,
+) -> RunResult:
+    """Run (or continue) the generations of a recorded run until the last one.
+
+    Args:
+        executor: evaluates each generation; built from the run's problem.
+        select: asks a person for the chosen indices (needed for ``fitness="user"``).
+        progress: show a progress bar (with ETA) during each generation.
+        log: receives one summary line per generation.
+    """
+    run = archive.run(run_id)
+    config = run["config"]
+    directory = Path(run["dir"])
+    problem = Problem.from_dict(config["problem"])
+    if problem.fitness == "user" and select is None:
+        raise MorphogenError("user fitness needs a way to ask for the selection")
+    strategy = make_strategy(config["strategy"])
+    total = int(config["generations"])
+    master = jax.random.PRNGKey(int(config["seed"]))
+    state = strategy.init(jax.random.fold_in(master, 0), problem.genes)
+    first = 1
+    last = archive.last_state(run_id)
+    if last is not None:
+        first = last[0] + 1
+        state = state_from_arrays(state, last[1])
+    ask_key, eval_key = jax.random.fold_in(master, 1), jax.random.fold_in(master, 2)
+    label = f"{problem.model} {config['strategy']['name']} {problem.fitness}"
+    started = time.perf_counter()
+    for gen in range(first, total + 1):
+        t0 = time.perf_counter()
+        genomes, state = strategy.ask(jax.random.fold_in(ask_key, gen), state)
+        genomes = np.asarray(genomes)
+        bar = ProgressBar(executor.total(len(genomes)), enabled=progress, unit=executor.unit,
+                          desc=f"generation {gen}/{total}")
+        try:
+            fitness, metrics = executor.evaluate(genomes, jax.random.fold_in(eval_key, gen),
+                                                 bar.update)
+        finally:
+            bar.close()
+        rgb = report.tiles(metrics["fields"], config.get("cmap", "viridis"))
+        images = report.write_individuals(directory, gen, rgb)
+        title = f"{label} - generation {gen}"
+        if problem.fitness == "user":
+            sheet = report.write_sheet(directory, gen, rgb, None, title)
+            chosen = select(str(directory / sheet), len(genomes))
+            fitness = human_fitness(chosen, len(genomes)).astype(np.float32)
+        sheet = report.write_sheet(directory, gen, rgb, fitness, title)
+        state, m = strategy.tell(genomes, fitness, state)
+        seconds = time.perf_counter() - t0
+        archive.record_generation(run_id, Generation(
+            gen=gen, genomes=genomes, fitness=fitness, valid=metrics["valid"], images=images,
+            sheet=sheet, seconds=seconds, best_so_far=float(m["best_fitness"]),
+            state=state_to_arrays(state),
+        ))
+        report.write_fitness_plot(directory, archive.generations(run_id), label)
+        report.write_best(directory, problem, archive.best(run_id, BEST_KEPT), run_id)
+        remaining = (time.perf_counter() - started) / (gen - first + 1) * (total - gen)
+        log(_summary(gen, total, fitness, metrics["valid"], float(m["best_fitness"]), seconds,
+                     remaining))
+    archive.set_status(run_id, "done")
+    best = archive.best(run_id, 1)[0]
+    return RunResult(run_id, directory, np.asarray(best["genome"]), float(best["fitness"]),
+                     total)
+
+
+def resolve_run(ref: str, archive_path: str | None = None) -> tuple[str, Archive]:
+    """Find a run by directory (reading its ``config.json``) or by id in the archive."""
+    import json
+
+    config_file = Path(ref) / CONFIG
+    if config_file.is_file():
+        try:
+            config = json.loads(config_file.read_text())
+            run_id, path = config["id"], archive_path or config["archive"]
+        except (OSError, ValueError, KeyError):
+            raise MorphogenError(f"{config_file} is not a run configuration") from None
+        archive = Archive(path, create=False)
+        archive.run(run_id)
+        return run_id, archive
+    if Path(ref).is_dir():
+        raise MorphogenError(f"{ref} is a directory but holds no run ({CONFIG} missing)")
+    archive = Archive(archive_path, create=False)
+    return archive.run(ref)["id"], archive
+
+
+def _summary(gen: int, total: int, fitness: np.ndarray, valid: np.ndarray, best: float,
+             seconds: float, remaining: float) -> str:
+    finite = fitness[np.isfinite(fitness)]
+    mean = float(finite.mean()) if finite.size else float("nan")
+    return (f"generation {gen}/{total}: best {float(np.max(fitness)):.4f}  mean {mean:.4f}  "
+            f"valid {int(np.sum(valid))}/{len(valid)}  best so far {best:.4f}  "
+            f"{seconds:.1f} s  eta {_clock(remaining)}")
+
+
+def _clock(seconds: float) -> str:
+    m, s = divmod(int(round(seconds)), 60)
+    h, m = divmod(m, 60)
+    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
