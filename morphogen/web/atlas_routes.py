@@ -1,9 +1,10 @@
 """The Atlas page: a map over two parameters computed as one batched run.
 
-``POST /api/atlas`` validates the request, queues a job and returns its id. The job simulates
-every ``(x, y)`` pair as one member of a batch (:func:`morphogen.simulate.simulate_batch`), in a
-few compiled chunks so that progress shows and the time limit holds, and renders the tiles into
-one image without labels: tile ``(i, j)`` (row ``i`` from the top, column ``j``) sits at pixel
+``POST /api/atlas`` validates the request (its cost is bounded by ``Limits.max_cell_steps``),
+queues a job and returns its id. The job is :func:`morphogen.atlas.compute_atlas`, the same
+single batched program as ``morphogen atlas``: every ``(x, y)`` pair is one member of a vmapped
+batch. The tiles share one colour scale (as in the command's mosaic) and are laid out in one
+image without labels: tile ``(i, j)`` (row ``i`` from the top, column ``j``) sits at pixel
 ``(pad + j (tile + pad), pad + i (tile + pad))``, so the page maps a click to a tile exactly and
 draws the axes itself. Row 0 is the largest ``y`` (``y`` grows upwards, as on a plot).
 """
@@ -16,6 +17,8 @@ import imageio.v3 as iio
 import numpy as np
 from fastapi import APIRouter, Request
 
+from morphogen.atlas import Axis, compute_atlas
+from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
 from morphogen.web import batch
 from morphogen.web.catalog import check_params, resolve_model
@@ -25,7 +28,6 @@ from morphogen.web.limits import JSONBody, Limits, check_budget, integer, number
 router = APIRouter(prefix="/api/atlas")
 
 PAD = 1
-CHUNKS = 8
 
 
 def parse_axis(spec: Any, model_params: dict[str, float], which: str, limits: Limits) -> dict:
@@ -63,17 +65,24 @@ async def start(request: Request, body: JSONBody):
     cmap = batch.colour_map(body.get("cmap", "viridis"))
 
     def work(job: Job, progress: Progress) -> dict[str, Any]:
-        # row-major from the top: y descending, x ascending
-        ys = np.repeat(np.asarray(y["values"][::-1]), x["n"])
-        xs = np.tile(np.asarray(x["values"]), y["n"])
-        values = {x["name"]: xs, y["name"]: ys}
-        states, valid = batch.run(model, base, values, run, progress, "atlas")
-        image = batch.mosaic(states, model, run["species"], cmap, (y["n"], x["n"]), PAD)
+        n_runs = x["n"] * y["n"]
+        progress(0.0, f"simulating {n_runs} runs at once, {run['steps']} steps each")
+        atlas = compute_atlas(
+            model, Grid((run["tile"], run["tile"])),
+            Axis(x["name"], np.asarray(x["values"])), Axis(y["name"], np.asarray(y["values"])),
+            params=base, steps=run["steps"], dt=run["dt"], init=run["init"], seed=run["seed"],
+        )
+        progress(1.0, f"{n_runs} runs in {atlas.wall_time:.1f} s")
+        # rows from the top: largest y first
+        states = atlas.states[::-1].reshape(n_runs, *atlas.states.shape[2:])
+        valid = atlas.valid[::-1]
+        image = batch.mosaic(states, model, run["species"], cmap, (y["n"], x["n"]), PAD,
+                             valid=valid.reshape(-1))
         job.files["atlas.png"] = (iio.imwrite("<bytes>", image, extension=".png"), "image/png")
         return {
             "image": f"/api/jobs/{job.id}/files/atlas.png",
             "x": x, "y": y, "tile": run["tile"], "pad": PAD,
-            "valid": valid.reshape(y["n"], x["n"]).tolist(),
+            "valid": valid.tolist(), "wall_time_s": round(atlas.wall_time, 3),
             "model": spec, "model_name": model.name, "params": base,
             "dt": run["dt"], "steps": run["steps"], "init": run["init"], "seed": run["seed"],
         }

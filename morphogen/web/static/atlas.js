@@ -1,0 +1,152 @@
+// Atlas: a map over two parameters, computed on the server as one batched run (a job with
+// progress). Clicking a tile opens that parameter pair in Explore.
+
+import { api, el, fillSelect, fmt, showError, waitForJob } from './api.js';
+
+const DEFAULT_AXES = {
+  'gray-scott': { x: ['k', 0.045, 0.07], y: ['F', 0.01, 0.08] },
+};
+
+export class Atlas {
+  constructor(root, app) {
+    this.root = root;
+    this.app = app;
+    this.$ = (id) => root.querySelector(`#${id}`);
+    window.morphogenAtlas = this;
+  }
+
+  async init() {
+    const info = this.app.info;
+    fillSelect(this.$('at-model'), info.models.map((m) => m.name), 'gray-scott');
+    fillSelect(this.$('at-cmap'), info.colormaps, 'viridis');
+    this.$('at-model').addEventListener('change', () => this.chooseModel());
+    this.$('at-x').addEventListener('change', () => this.axisDefaults('x'));
+    this.$('at-y').addEventListener('change', () => this.axisDefaults('y'));
+    this.$('at-go').addEventListener('click', () => this.compute());
+    this.$('at-cancel').addEventListener('click', () => this.cancel());
+    const img = this.$('at-image');
+    img.addEventListener('click', (ev) => this.open(ev));
+    img.addEventListener('mousemove', (ev) => this.hover(ev));
+    await this.chooseModel();
+  }
+
+  async chooseModel() {
+    const name = this.$('at-model').value;
+    try {
+      this.model = await api(`/api/models/${name}`);
+    } catch (err) { showError(this.$('at-error'), err.message); return; }
+    const names = this.model.params.map((p) => p.name);
+    const axes = DEFAULT_AXES[name] || { x: [names[0]], y: [names[1] || names[0]] };
+    fillSelect(this.$('at-x'), names, axes.x[0]);
+    fillSelect(this.$('at-y'), names, axes.y[0]);
+    this.axisDefaults('x', axes.x);
+    this.axisDefaults('y', axes.y);
+    this.$('at-steps').value = '';
+    this.$('at-steps').placeholder = 'model default';
+  }
+
+  axisDefaults(which, preset) {
+    const name = this.$(`at-${which}`).value;
+    const p = this.model.params.find((q) => q.name === name);
+    const lo = preset && preset[0] === name && preset.length > 1 ? preset[1] : p.min;
+    const hi = preset && preset[0] === name && preset.length > 2 ? preset[2] : p.max;
+    this.$(`at-${which}-lo`).value = fmt(lo);
+    this.$(`at-${which}-hi`).value = fmt(hi);
+  }
+
+  request() {
+    const axis = (w) => ({
+      name: this.$(`at-${w}`).value,
+      lo: Number(this.$(`at-${w}-lo`).value),
+      hi: Number(this.$(`at-${w}-hi`).value),
+      n: Number(this.$(`at-${w}-n`).value),
+    });
+    const body = {
+      model: { library: this.$('at-model').value },
+      x: axis('x'), y: axis('y'),
+      tile: Number(this.$('at-tile').value),
+      cmap: this.$('at-cmap').value,
+    };
+    const steps = this.$('at-steps').value;
+    if (steps !== '') body.steps = Number(steps);
+    return body;
+  }
+
+  async compute() {
+    showError(this.$('at-error'), '');
+    const bar = this.$('at-progress');
+    this.$('at-go').disabled = true;
+    try {
+      const { job } = await api('/api/atlas', { method: 'POST', body: this.request() });
+      this.job = job;
+      bar.hidden = false;
+      this.$('at-cancel').hidden = false;
+      const result = await waitForJob(job, (j) => {
+        if (j.progress > 0) bar.value = j.progress;
+        else bar.removeAttribute('value');
+        this.$('at-message').textContent = `${j.message} (${j.elapsed_s.toFixed(1)} s)`;
+      });
+      this.showResult(result);
+    } catch (err) {
+      showError(this.$('at-error'), err.message);
+    } finally {
+      this.$('at-go').disabled = false;
+      this.$('at-cancel').hidden = true;
+      bar.hidden = true;
+    }
+  }
+
+  async cancel() {
+    if (this.job) await api(`/api/jobs/${this.job}`, { method: 'DELETE' }).catch(() => {});
+  }
+
+  showResult(res) {
+    this.result = res;
+    const img = this.$('at-image');
+    const cell = res.tile + res.pad;
+    const zoom = Math.max(1, Math.floor(640 / (Math.max(res.x.n, res.y.n) * cell)));
+    img.onload = () => {
+      img.style.width = `${img.naturalWidth * zoom}px`;
+      img.style.height = `${img.naturalHeight * zoom}px`;
+      this.$('at-result').hidden = false;
+    };
+    img.src = res.image;
+    this.$('at-ylabels').replaceChildren(
+      ...[...res.y.values].reverse().map((v) => el('span', { text: `${res.y.name}=${fmt(v)}` })),
+    );
+    this.$('at-xlabels').replaceChildren(
+      ...res.x.values.map((v) => el('span', { text: `${res.x.name}=${fmt(v)}` })),
+    );
+    const bad = res.valid.flat().filter((v) => !v).length;
+    this.$('at-message').textContent = `${res.model_name}: ${res.x.n} × ${res.y.n} tiles of ${res.tile}², `
+      + `${res.steps} steps of dt = ${fmt(res.dt)}` + (bad ? `; ${bad} blew up (magenta)` : '');
+  }
+
+  // tile under the pointer: {i (row from the top), j (column)} or null
+  tileAt(ev) {
+    const res = this.result;
+    const img = this.$('at-image');
+    const r = img.getBoundingClientRect();
+    const px = ((ev.clientX - r.left) / r.width) * img.naturalWidth - res.pad;
+    const py = ((ev.clientY - r.top) / r.height) * img.naturalHeight - res.pad;
+    const cell = res.tile + res.pad;
+    const j = Math.floor(px / cell);
+    const i = Math.floor(py / cell);
+    if (i < 0 || j < 0 || i >= res.y.n || j >= res.x.n) return null;
+    return { i, j, x: res.x.values[j], y: res.y.values[res.y.n - 1 - i] };
+  }
+
+  hover(ev) {
+    const t = this.result && this.tileAt(ev);
+    this.$('at-hover').textContent = t
+      ? `${this.result.x.name} = ${fmt(t.x)}, ${this.result.y.name} = ${fmt(t.y)}` : '';
+  }
+
+  open(ev) {
+    const t = this.result && this.tileAt(ev);
+    if (!t) return;
+    const res = this.result;
+    const params = { ...res.params, [res.x.name]: t.x, [res.y.name]: t.y };
+    this.app.openInExplore({ model: res.model, params, init: res.init, seed: res.seed });
+  }
+}

@@ -1,0 +1,376 @@
+// Explore: a live simulation owned by this tab. Frames come over a WebSocket, one in flight
+// at a time (send "next", receive a binary frame); controls are small JSON requests.
+
+import { api, colourTable, el, fillSelect, fmt, showError } from './api.js';
+
+const HEADER_BYTES = 28; // u16 w, u16 h, u32 frame, f32 t, u32 steps, f32 lo, f32 hi, f32 ms
+const EQUATIONS = '__equations__';
+const EXAMPLE = `name = "schnakenberg-pasted"
+species = ["u", "v"]
+
+[parameters]
+a = 0.1
+b = 0.9
+Du = 0.05
+Dv = 2.0
+
+[equations]
+u = "a - u + u**2*v + Du*lap(u)"
+v = "b - u**2*v + Dv*lap(v)"
+
+[run]
+dt = 0.05
+`;
+
+export class Explore {
+  constructor(root, app) {
+    this.root = root;
+    this.app = app;
+    this.$ = (id) => root.querySelector(`#${id}`);
+    this.sid = null;
+    this.state = null;
+    this.running = true;
+    this.inflight = false;
+    this.frames = 0;
+    this.fps = 0;
+    this.fpsWindow = [];
+    this.pending = {}; // parameter changes not yet sent
+    this.paintQueue = [];
+    this.visible = true;
+    // what the end-to-end tests read
+    window.morphogenExplore = this;
+  }
+
+  async init() {
+    const info = this.app.info;
+    const models = info.models.map((m) => [m.name, m.name]);
+    models.push([EQUATIONS, 'pasted equations…']);
+    fillSelect(this.$('ex-model'), models, 'gray-scott');
+    fillSelect(this.$('ex-cmap'), info.colormaps, 'viridis');
+    fillSelect(this.$('ex-steps'), info.step_choices.map(String));
+    fillSelect(this.$('ex-init'), info.init_kinds);
+    this.$('ex-equations').value = EXAMPLE;
+    this.canvas = this.$('ex-canvas');
+    this.ctx = this.canvas.getContext('2d');
+    this.bindControls();
+    this.bindPainting();
+    await this.load({ model: { library: 'gray-scott' } });
+  }
+
+  show() {
+    this.visible = true;
+    this.request();
+  }
+
+  hide() {
+    this.visible = false;
+  }
+
+  // (Re)start with settings {model, params, preset, init, seed, size, boundary}.
+  async load(settings) {
+    const body = {
+      model: settings.model,
+      params: settings.params,
+      preset: settings.preset,
+      init: settings.init,
+      seed: settings.seed ?? 0,
+      size: settings.size ?? Number(this.$('ex-size').value),
+      boundary: settings.boundary ?? this.$('ex-boundary').value,
+    };
+    if (settings.model.library) this.$('ex-model').value = settings.model.library;
+    else {
+      this.$('ex-model').value = EQUATIONS;
+      this.$('ex-equations').value = settings.model.equations;
+    }
+    this.$('ex-eq-box').hidden = this.$('ex-model').value !== EQUATIONS;
+    try {
+      let state;
+      if (this.sid) {
+        state = await api(`/api/live/${this.sid}/configure`, { method: 'POST', body });
+      } else {
+        state = await api('/api/live', { method: 'POST', body });
+        this.sid = state.id;
+        const old = this.ws;
+        this.ws = null;
+        if (old) old.close();
+        this.openSocket();
+      }
+      this.model = settings.model.library
+        ? await api(`/api/models/${settings.model.library}`)
+        : await api('/api/models/parse', { method: 'POST', body: { equations: settings.model.equations } });
+      this.spec = settings.model;
+      await this.applyState(state, true);
+      showError(this.$('ex-error'), '');
+      this.setRunning(true);
+    } catch (err) {
+      if (err.body?.gone) { this.sid = null; return this.load(settings); }
+      showError(this.$('ex-error'), err.message);
+    }
+  }
+
+  async applyState(state, rebuild) {
+    this.state = state;
+    if (rebuild) this.buildParams();
+    for (const [name, v] of Object.entries(state.params)) this.setParamUI(name, v);
+    fillSelect(this.$('ex-species'), state.species, state.show);
+    fillSelect(this.$('ex-preset'), [['', '—'], ...Object.keys(this.model.presets)], '');
+    this.$('ex-desc').textContent = [this.model.description, this.model.reference]
+      .filter(Boolean).join(' — ');
+    this.$('ex-steps').value = String(state.steps_per_frame);
+    this.$('ex-init').value = state.init;
+    this.$('ex-seed').value = state.seed;
+    this.$('ex-size').value = String(state.size);
+    this.$('ex-cmap').value = state.cmap;
+    this.setDt(state.dt, state.dt_max);
+    this.lut = await colourTable(state.cmap);
+    this.updateLinks();
+    if (state.error) showError(this.$('ex-error'), state.error);
+  }
+
+  buildParams() {
+    const box = this.$('ex-params');
+    box.replaceChildren();
+    this.paramInputs = {};
+    for (const p of this.model.params) {
+      const range = el('input', {
+        type: 'range', min: p.min, max: p.max, step: p.step, 'aria-label': p.name,
+        'data-param': p.name,
+      });
+      const num = el('input', { type: 'number', class: 'pnum', step: 'any', 'aria-label': `${p.name} value` });
+      range.addEventListener('input', () => { num.value = fmt(Number(range.value)); this.queueParam(p.name, Number(range.value)); });
+      num.addEventListener('change', () => {
+        const v = Number(num.value);
+        if (v > Number(range.max)) range.max = v;
+        if (v < Number(range.min)) range.min = v;
+        range.value = v;
+        this.queueParam(p.name, v);
+      });
+      this.paramInputs[p.name] = { range, num };
+      box.append(el('div', { class: 'param' }, el('span', { class: 'pname', title: p.name, text: p.name }), range, num));
+    }
+  }
+
+  setParamUI(name, v) {
+    const inp = this.paramInputs?.[name];
+    if (!inp) return;
+    if (v > Number(inp.range.max)) inp.range.max = v;
+    if (v < Number(inp.range.min)) inp.range.min = v;
+    inp.range.value = v;
+    inp.num.value = fmt(v);
+  }
+
+  setDt(dt, dtMax) {
+    const r = this.$('ex-dt');
+    r.min = dtMax / 1000; r.max = dtMax; r.step = dtMax / 1000;
+    r.value = dt;
+    this.$('ex-dt-num').value = fmt(dt);
+  }
+
+  queueParam(name, value) {
+    this.pending[name] = value;
+    if (!this.paramTimer) this.paramTimer = setTimeout(() => this.sendParams(), 40);
+  }
+
+  async sendParams(extra = {}) {
+    this.paramTimer = null;
+    const params = this.pending;
+    this.pending = {};
+    try {
+      const res = await api(`/api/live/${this.sid}/params`, { method: 'POST', body: { params, ...extra } });
+      this.state = { ...this.state, ...res };
+      this.setDt(res.dt, res.dt_max);
+      showError(this.$('ex-notice'), res.notices.join('\n'));
+      this.updateLinks();
+    } catch (err) {
+      this.fail(err);
+    }
+  }
+
+  bindControls() {
+    this.$('ex-model').addEventListener('change', () => {
+      const v = this.$('ex-model').value;
+      this.$('ex-eq-box').hidden = v !== EQUATIONS;
+      if (v !== EQUATIONS) this.load({ model: { library: v } });
+    });
+    this.$('ex-eq-apply').addEventListener('click', () => {
+      this.load({ model: { equations: this.$('ex-equations').value } });
+    });
+    this.$('ex-preset').addEventListener('change', () => {
+      const preset = this.$('ex-preset').value;
+      if (preset) this.load({ model: this.spec, preset, init: this.$('ex-init').value });
+    });
+    this.$('ex-dt').addEventListener('input', () => {
+      this.$('ex-dt-num').value = fmt(Number(this.$('ex-dt').value));
+      this.sendParams({ dt: Number(this.$('ex-dt').value) });
+    });
+    this.$('ex-dt-num').addEventListener('change', () => this.sendParams({ dt: Number(this.$('ex-dt-num').value) }));
+    const view = async (body) => {
+      try {
+        const res = await api(`/api/live/${this.sid}/view`, { method: 'POST', body });
+        this.state = res;
+        this.lut = await colourTable(res.cmap);
+        this.updateLinks();
+        this.redraw();
+      } catch (err) { this.fail(err); }
+    };
+    this.$('ex-species').addEventListener('change', () => view({ species: this.$('ex-species').value }));
+    this.$('ex-cmap').addEventListener('change', () => view({ cmap: this.$('ex-cmap').value }));
+    this.$('ex-steps').addEventListener('change', () => view({ steps_per_frame: Number(this.$('ex-steps').value) }));
+    this.$('ex-reset').addEventListener('click', () => this.reset());
+    this.$('ex-size').addEventListener('change', () => this.restart());
+    this.$('ex-boundary').addEventListener('change', () => this.restart());
+    this.$('ex-run').addEventListener('click', () => this.setRunning(!this.running));
+  }
+
+  restart() {
+    this.load({
+      model: this.spec, params: this.state.params, init: this.$('ex-init').value,
+      seed: Number(this.$('ex-seed').value),
+    });
+  }
+
+  async reset() {
+    try {
+      const res = await api(`/api/live/${this.sid}/reset`, {
+        method: 'POST', body: { init: this.$('ex-init').value, seed: Number(this.$('ex-seed').value) },
+      });
+      this.state = res;
+      showError(this.$('ex-error'), '');
+      this.setRunning(true);
+    } catch (err) { this.fail(err); }
+  }
+
+  setRunning(on) {
+    this.running = on;
+    this.$('ex-run').textContent = on ? 'Pause' : 'Run';
+    this.request();
+  }
+
+  updateLinks() {
+    if (!this.sid) return;
+    const cmap = encodeURIComponent(this.$('ex-cmap').value);
+    this.$('ex-save-png').href = `/api/live/${this.sid}/png?cmap=${cmap}`;
+    this.$('ex-save-run').href = `/api/live/${this.sid}/config`;
+  }
+
+  // -- frames ------------------------------------------------------------------------------
+  openSocket() {
+    const proto = window.location.protocol === 'https:' ? 'wss' : 'ws';
+    const ws = new WebSocket(`${proto}://${window.location.host}/api/live/${this.sid}/ws`);
+    ws.binaryType = 'arraybuffer';
+    ws.onopen = () => { this.inflight = false; this.request(); };
+    ws.onmessage = (ev) => this.onMessage(ev.data);
+    ws.onclose = () => {
+      this.inflight = false;
+      if (this.ws === ws) setTimeout(() => this.openSocket(), 1000);
+    };
+    this.ws = ws;
+  }
+
+  request() {
+    const ws = this.ws;
+    if (!this.running || !this.visible || this.inflight || !ws || ws.readyState !== WebSocket.OPEN) return;
+    this.inflight = true;
+    ws.send('next');
+  }
+
+  onMessage(data) {
+    this.inflight = false;
+    if (typeof data === 'string') {
+      const msg = JSON.parse(data);
+      if (msg.gone) { this.sid = null; this.load({ model: this.spec }); return; }
+      showError(this.$('ex-error'), msg.error);
+      this.setRunning(false);
+      return;
+    }
+    this.draw(data);
+    requestAnimationFrame(() => this.request());
+  }
+
+  draw(buf) {
+    const head = new DataView(buf, 0, HEADER_BYTES);
+    const w = head.getUint16(0, true);
+    const h = head.getUint16(2, true);
+    this.last = {
+      w, h, frame: head.getUint32(4, true), t: head.getFloat32(8, true),
+      steps: head.getUint32(12, true), lo: head.getFloat32(16, true), hi: head.getFloat32(20, true),
+      ms: head.getFloat32(24, true), pixels: new Uint8Array(buf, HEADER_BYTES, w * h),
+    };
+    this.redraw();
+    this.frames += 1;
+    const now = performance.now();
+    this.fpsWindow.push(now);
+    while (this.fpsWindow.length && now - this.fpsWindow[0] > 2000) this.fpsWindow.shift();
+    if (this.fpsWindow.length > 1) {
+      this.fps = (this.fpsWindow.length - 1) / ((now - this.fpsWindow[0]) / 1000);
+    }
+    const f = this.last;
+    this.$('ex-stats').textContent = `${this.fps.toFixed(1)} frames/s · t = ${fmt(f.t)} · `
+      + `${f.steps} steps · ${f.ms.toFixed(1)} ms/frame on the server · range ${fmt(f.lo)}…${fmt(f.hi)}`;
+  }
+
+  redraw() {
+    const f = this.last;
+    if (!f || !this.lut) return;
+    if (this.canvas.width !== f.w || this.canvas.height !== f.h) {
+      this.canvas.width = f.w;
+      this.canvas.height = f.h;
+    }
+    if (!this.image || this.image.width !== f.w || this.image.height !== f.h) {
+      this.image = this.ctx.createImageData(f.w, f.h);
+    }
+    const out = this.image.data;
+    const lut = this.lut;
+    const px = f.pixels;
+    for (let i = 0, j = 0; i < px.length; i += 1, j += 4) {
+      const k = px[i] * 3;
+      out[j] = lut[k]; out[j + 1] = lut[k + 1]; out[j + 2] = lut[k + 2]; out[j + 3] = 255;
+    }
+    this.ctx.putImageData(this.image, 0, 0);
+  }
+
+  // -- painting ----------------------------------------------------------------------------
+  bindPainting() {
+    let down = false;
+    const point = (ev) => {
+      const r = this.canvas.getBoundingClientRect();
+      const x = Math.min(Math.max((ev.clientX - r.left) / r.width, 0), 1);
+      const y = Math.min(Math.max((ev.clientY - r.top) / r.height, 0), 1);
+      this.paintQueue.push([x, y]);
+      if (!this.paintTimer) this.paintTimer = setTimeout(() => this.flushPaint(), 30);
+    };
+    this.canvas.addEventListener('pointerdown', (ev) => {
+      down = true;
+      this.canvas.setPointerCapture(ev.pointerId);
+      point(ev);
+    });
+    this.canvas.addEventListener('pointermove', (ev) => { if (down) point(ev); });
+    const up = () => { down = false; };
+    this.canvas.addEventListener('pointerup', up);
+    this.canvas.addEventListener('pointercancel', up);
+  }
+
+  async flushPaint() {
+    this.paintTimer = null;
+    const points = this.paintQueue.splice(0, 64);
+    if (this.paintQueue.length) this.paintTimer = setTimeout(() => this.flushPaint(), 30);
+    if (!points.length || !this.sid) return;
+    try {
+      await api(`/api/live/${this.sid}/paint`, {
+        method: 'POST',
+        body: { points, radius: Number(this.$('ex-brush').value), mode: this.$('ex-paint-mode').value },
+      });
+      if (!this.running) this.setRunning(true);
+      showError(this.$('ex-error'), '');
+    } catch (err) { this.fail(err); }
+  }
+
+  fail(err) {
+    if (err.body?.gone) {
+      this.sid = null;
+      this.load({ model: this.spec, params: this.state?.params });
+      return;
+    }
+    showError(this.$('ex-error'), err.message);
+  }
+}

@@ -1,0 +1,59 @@
+// Page router: #explore, #atlas, #evolve, #runs, #mesh. Each page is built the first time it
+// is shown; pages talk to each other through `app` (e.g. app.openInExplore(settings)).
+
+import { api } from './api.js';
+import { Explore } from './explore.js';
+import { Atlas } from './atlas.js';
+import { Evolve } from './evolve.js';
+import { Runs } from './runs.js';
+import { Mesh } from './mesh.js';
+
+const PAGES = { explore: Explore, atlas: Atlas, evolve: Evolve, runs: Runs, mesh: Mesh };
+
+const app = {
+  info: null, // /api/models: library models, colour maps, initial conditions
+  pages: {},
+  current: null,
+
+  async show(name) {
+    if (!PAGES[name]) name = 'explore';
+    for (const key of Object.keys(PAGES)) {
+      document.getElementById(`page-${key}`).hidden = key !== name;
+    }
+    for (const a of document.querySelectorAll('#nav a')) {
+      a.classList.toggle('active', a.dataset.page === name);
+    }
+    if (this.current && this.current !== name && this.pages[this.current]?.hide) {
+      this.pages[this.current].hide();
+    }
+    this.current = name;
+    if (!this.pages[name]) {
+      this.pages[name] = new PAGES[name](document.getElementById(`page-${name}`), this);
+      await this.pages[name].init();
+    }
+    if (this.pages[name].show) this.pages[name].show();
+  },
+
+  // settings: {model: {library|equations}, params, init, seed, size}
+  async openInExplore(settings) {
+    window.location.hash = '#explore';
+    await this.show('explore');
+    await this.pages.explore.load(settings);
+  },
+};
+
+window.morphogenApp = app;
+
+async function start() {
+  try {
+    app.info = await api('/api/models');
+  } catch (err) {
+    document.getElementById('status').textContent = `server error: ${err.message}`;
+    return;
+  }
+  const route = () => app.show(window.location.hash.replace('#', '') || 'explore');
+  window.addEventListener('hashchange', route);
+  await route();
+}
+
+start();
