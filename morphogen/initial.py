@@ -7,8 +7,9 @@ perturbs, moves towards the model's excited values ``e``. Kinds (:data:`INITIAL_
 - ``noise``: ``g + amplitude * max(|g|, 0.1) * U(-1, 1)`` per cell (uniform with noise).
 - ``square``: ``e`` inside a centred square of side ``size`` (fraction of each axis), ``g``
   outside (Richard et al. §IV.4.2 and §5.2.1).
-- ``blobs``: ``count`` Gaussian blobs of width ``radius`` at random places, blending ``g`` to
-  ``e`` (Richard et al. §III.2.1; Mordvintsev et al.'s seed states).
+- ``blobs``: ``count`` Gaussian blobs of width ``radius`` (a fraction of the domain, at least
+  2.5 cells) at random places, blending ``g`` to ``e`` (Richard et al. §III.2.1; Mordvintsev
+  et al.'s seed states).
 - ``skaggs``: Skaggs eqs. 3.3-3.4 on the unit square centred at the origin (two species):
   ``u0 = 1 - exp(-80((x+0.05)^2 + (y+0.05)^2))``, ``v0 = exp(-80((x-0.05)^2 + (y-0.05)^2))``.
 - ``seeds``: ``count`` random cells (or mesh vertices) where ``species`` takes
@@ -115,6 +116,7 @@ def _square(model, domain, g, e, rng, size: float = 0.1, amplitude: float = 0.0)
 @_kind("blobs")
 def _blobs(model, domain, g, e, rng, count: int = 12, radius: float = 0.025):
     pos = _positions(domain)[: max(1, min(3, len(domain.spatial_shape)))]
+    radius = max(radius, 2.5 / min(domain.spatial_shape))
     weight = np.zeros(domain.spatial_shape)
     for _ in range(int(count)):
         centre = rng.uniform(0.0, 1.0, len(pos))
