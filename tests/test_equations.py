@@ -304,6 +304,7 @@ def test_expression_reports_its_names():
         ("min(u)", 6, "takes 2 argument"),
         ("exp", 6, "exp is a function"),
         ("u + c", 10, "unknown name 'c'"),
+        ("u*\\u0061 + \\\"s\\\"", 17, "strings are not allowed"),  # TOML escapes
         ("u + * v", 10, "syntax error"),
         ("u + (v", 10, "never closed"),
         ("u +", 9, "ends too early"),
@@ -339,8 +340,9 @@ def test_multiline_equation_positions():
     text = 'species = ["u"]\n[equations]\nu = """\n1 +\n  2 * q\n"""\n'
     with pytest.raises(MorphogenError, match=r"line 5, column 7: .*unknown name 'q'"):
         parse_model(text)
-    ok = parse_model('species = ["u"]\n[equations]\nu = """\n1 +\n  2 * u\n"""\n')
+    ok = parse_model('species = ["u"]\n[equations]\nu = """\n  1 +\n    2 * u\n  + lap(u)\n"""\n')
     assert float(ok.reaction(jnp.ones((1, 3, 3)), {}, {})[0, 0, 0]) == 3.0
+    assert ok.diffusion({}, {}) == (1.0,)
 
 
 def test_expression_errors_are_positioned_in_other_sections():

@@ -411,11 +411,11 @@ class _Source:
         start = self.locate(section, key, subkey, inside_string=True)
         if start is None:
             return self.error(f"{what}, line {exc.line}, column {exc.column}: {exc.reason}")
-        line, column = start
-        if exc.line == 1:
-            at = (line, column + exc.column - 1)
-        else:
-            at = (line + exc.line - 1, exc.column)
+        line, column, escapes = start
+        if exc.line > 1:
+            line, column = line + exc.line - 1, 1
+        raw = self.lines[line - 1] if line <= len(self.lines) else ""
+        at = (line, _raw_column(raw, column - 1, exc.column, escapes))
         return self.error(f"{what}: {exc.reason}", at)
 
     def locate(self, section, key, subkey=None, *, inside_string=False):
@@ -448,13 +448,27 @@ class _Source:
             return self._string_start(number, line, position)
         return None
 
-    def _string_start(self, number: int, line: str, position: int) -> tuple[int, int]:
+    def _string_start(self, number: int, line: str, position: int) -> tuple[int, int, bool]:
+        """``(line, column, escapes)`` of a value's first character; ``escapes`` is true for
+        TOML basic strings (double quotes), whose backslash escapes take several characters."""
         rest = line[position:]
         for quote in ('"""', "'''"):
             if rest.startswith(quote):
                 if not rest[3:].strip():
-                    return number + 1, 1
-                return number, position + 4
+                    return number + 1, 1, quote == '"""'
+                return number, position + 4, quote == '"""'
         if rest[:1] in ("'", '"'):
-            return number, position + 2
-        return number, position + 1
+            return number, position + 2, rest[0] == '"'
+        return number, position + 1, False
+
+
+def _raw_column(raw: str, begin: int, column: int, escapes: bool) -> int:
+    """File column of the ``column``-th character of a string value that starts at index
+    ``begin`` of the file line ``raw`` (an escape such as ``\\"`` counts as one character)."""
+    i = begin
+    for _ in range(column - 1):
+        if escapes and raw[i : i + 1] == "\\":
+            i += {"u": 6, "U": 10}.get(raw[i + 1 : i + 2], 2)
+        else:
+            i += 1
+    return i + 1

@@ -177,7 +177,7 @@ def parse(text: str, *, extra_functions: Mapping[str, int] | None = None) -> ast
     """Parse ``text`` and check it against the whitelist; returns the expression node.
 
     Args:
-        text: one expression; it may span several lines (line breaks are joined).
+        text: one expression; it may span several lines.
         extra_functions: further call names accepted by the syntax check, with their number of
             arguments (e.g. ``{"lap": 1}`` for equations); they are not compiled here.
 
@@ -190,25 +190,45 @@ def parse(text: str, *, extra_functions: Mapping[str, int] | None = None) -> ast
         raise ExpressionError("the expression is empty", 1, 1)
     if len(text) > MAX_LENGTH:
         raise ExpressionError(f"the expression is longer than {MAX_LENGTH} characters", 1, 1)
-    # Line breaks become explicit continuations, which keep every line and column in place.
-    joined = " \\\n".join(text.splitlines())
+    lines = text.splitlines()
+    _check_brackets(lines)
+    # Inside brackets, line breaks and indentation are free; the bracket sits on a line of its
+    # own, so every node keeps its column and moves down by exactly one line.
     try:
-        tree = ast.parse(joined, mode="eval")
+        tree = ast.parse(f"(\n{text}\n)", mode="eval")
     except SyntaxError as exc:
         message = (exc.msg or "invalid syntax").split("\n")[0]
-        line, column = exc.lineno or 1, exc.offset or 0
-        lines = text.splitlines()
-        if column < 1 or line > len(lines):
-            line = len(lines)
-            column = len(lines[-1]) + 1
+        line, column = (exc.lineno or 2) - 1, exc.offset or 0
+        if column < 1 or not 1 <= line <= len(lines):
+            line, column = len(lines), len(lines[-1]) + 1
             message = "the expression ends too early"
         raise ExpressionError(f"syntax error: {message}", line, column) from None
     except (ValueError, RecursionError, MemoryError):
         raise ExpressionError("the expression is too deeply nested or malformed", 1, 1) from None
+    ast.increment_lineno(tree, -1)
     functions = {name: arity for name, (arity, _, _) in FUNCTIONS.items()}
     functions.update(extra_functions or {})
     _check(tree.body, text, functions, depth=0, in_condition=False)
     return tree.body
+
+
+def _check_brackets(lines: list[str]) -> None:
+    """Report an unmatched or unclosed bracket where it is."""
+    pairs = {")": "(", "]": "[", "}": "{"}
+    stack: list[tuple[str, int, int]] = []
+    for number, line in enumerate(lines, start=1):
+        for column, char in enumerate(line, start=1):
+            if char == "#":
+                break
+            if char in "([{":
+                stack.append((char, number, column))
+            elif char in pairs:
+                if not stack or stack[-1][0] != pairs[char]:
+                    raise ExpressionError(f"syntax error: unmatched {char!r}", number, column)
+                stack.pop()
+    if stack:
+        char, number, column = stack[-1]
+        raise ExpressionError(f"syntax error: {char!r} was never closed", number, column)
 
 
 def free_names(node: ast.AST) -> set[str]:
