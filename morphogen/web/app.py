@@ -21,7 +21,8 @@ from fastapi.staticfiles import StaticFiles
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from morphogen.errors import MorphogenError
-from morphogen.web import atlas_routes, explore, info, jobs
+from morphogen.web import atlas_routes, evolve_routes, explore, info, jobs, runs_routes
+from morphogen.web.evolution import EvolveRuns
 from morphogen.web.jobs import JobGone, JobStore
 from morphogen.web.limits import Limits, WorkTimeout
 from morphogen.web.sessions import SessionGone, SessionStore
@@ -57,6 +58,7 @@ def create_app(
     app.state.sessions = SessionStore(lim)
     app.state.jobs = JobStore(lim)
     app.state.archive = Path(archive) if archive is not None else None
+    app.state.evolve = EvolveRuns(lim.session_idle_s)
     app.add_middleware(TrustedHostMiddleware, allowed_hosts=list(allowed_hosts))
 
     @app.middleware("http")
@@ -83,7 +85,7 @@ def create_app(
     async def bad_input(request: Request, exc: MorphogenError):
         return JSONResponse({"error": str(exc)}, status_code=400)
 
-    for module in (info, explore, atlas_routes, jobs):
+    for module in (info, explore, atlas_routes, jobs, evolve_routes, runs_routes):
         app.include_router(module.router)
 
     @app.get("/", include_in_schema=False)

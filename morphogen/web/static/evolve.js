@@ -1,5 +1,200 @@
-// placeholder replaced below
+// Evolve: Skaggs's user-guided GA (choose favourites, next generation) or an automatic
+// fitness with progress. Runs land in the same archive as `morphogen evolve`.
+
+import { api, el, fillSelect, fmt, showError } from './api.js';
+
 export class Evolve {
-  constructor(root, app) { this.root = root; this.app = app; }
-  async init() {}
+  constructor(root, app) {
+    this.root = root;
+    this.app = app;
+    this.picked = new Set();
+    this.status = null;
+    window.morphogenEvolve = this;
+  }
+
+  async init() {
+    const c = this.root.querySelector('#ev-controls');
+    const s = this.root.querySelector('#ev-stage');
+    this.ui = {
+      model: el('select', { id: 'ev-model', 'aria-label': 'evolve model' }),
+      fitness: el('select', { id: 'ev-fitness' }),
+      strategy: el('select', { id: 'ev-strategy' }),
+      population: el('input', { id: 'ev-population', type: 'number', min: 2, max: 36 }),
+      generations: el('input', { id: 'ev-generations', type: 'number', min: 1, max: 200 }),
+      size: el('input', { id: 'ev-size', type: 'number', min: 16, max: 128 }),
+      steps: el('input', { id: 'ev-steps', type: 'number', min: 1 }),
+      dt: el('input', { id: 'ev-dt', type: 'number', step: 'any' }),
+      seed: el('input', { id: 'ev-seed', type: 'number', min: 0, value: 0 }),
+      genes: el('div', { id: 'ev-genes' }),
+      start: el('button', { id: 'ev-start', type: 'button', class: 'primary', text: 'Start run' }),
+      stop: el('button', { id: 'ev-stop', type: 'button', text: 'Stop', hidden: '' }),
+      next: el('button', { id: 'ev-next', type: 'button', class: 'primary', text: 'Next generation', disabled: '' }),
+      error: el('div', { id: 'ev-error', class: 'error', hidden: '' }),
+      bar: el('progress', { id: 'ev-progress', max: 1, value: 0, hidden: '' }),
+      message: el('p', { id: 'ev-message', class: 'muted' }),
+      grid: el('div', { id: 'ev-grid', class: 'grid-pop' }),
+      log: el('pre', { id: 'ev-log', class: 'mono muted' }),
+    };
+    const u = this.ui;
+    fillSelect(u.model, this.app.info.models.map((m) => m.name), 'gray-scott');
+    fillSelect(u.fitness, [['user', 'choose favourites (Skaggs eq. 3.9)'], ['dirichlet', 'automatic: modified Dirichlet energy']], 'user');
+    fillSelect(u.strategy, [['ga', 'genetic algorithm'], ['cmaes', 'CMA-ES']], 'ga');
+    const row = (label, input) => el('label', {}, label, input);
+    c.append(
+      el('fieldset', {}, el('legend', { text: 'Model' }), u.model),
+      el('fieldset', {}, el('legend', { text: 'Search' }), row('Fitness', u.fitness), row('Strategy', u.strategy),
+        row('Population', u.population), row('Generations', u.generations), row('Seed', u.seed)),
+      el('fieldset', {}, el('legend', { text: 'Simulation' }), row('Grid', u.size), row('Steps', u.steps), row('dt', u.dt)),
+      el('fieldset', {}, el('legend', { text: 'Genes (searched parameters)' }), u.genes),
+      u.start, u.stop,
+    );
+    s.append(
+      el('div', { class: 'toolbar' }, u.next, el('span', { class: 'muted small', text: 'Click tiles to choose favourites.' })),
+      u.error, u.bar, u.message, u.grid, u.log,
+    );
+    u.model.addEventListener('change', () => this.setup());
+    u.start.addEventListener('click', () => this.start());
+    u.stop.addEventListener('click', () => this.stop());
+    u.next.addEventListener('click', () => this.next());
+    await this.setup();
+  }
+
+  async setup() {
+    try {
+      const d = await api(`/api/evolve/setup/${this.ui.model.value}`);
+      const u = this.ui;
+      u.population.value = d.population;
+      u.generations.value = d.generations;
+      u.size.value = d.size;
+      u.steps.value = d.steps;
+      u.dt.value = d.dt;
+      this.init_kind = d.init;
+      const chosen = new Map(d.genes.map((g) => [g.name, g]));
+      u.genes.replaceChildren(...d.params.map((p) => {
+        const g = chosen.get(p.name);
+        const lo = g ? g.low : (p.value > 0 ? 0.5 * p.value : p.value < 0 ? 1.5 * p.value : -1);
+        const hi = g ? g.high : (p.value > 0 ? 1.5 * p.value : p.value < 0 ? 0.5 * p.value : 1);
+        const on = el('input', { type: 'checkbox', 'data-gene': p.name, 'aria-label': `gene ${p.name}` });
+        on.checked = Boolean(g);
+        return el('div', { class: 'param' },
+          el('label', { class: 'pname', title: p.name }, on, p.name),
+          el('input', { type: 'number', step: 'any', value: fmt(lo), class: 'pnum', 'data-low': p.name }),
+          el('input', { type: 'number', step: 'any', value: fmt(hi), class: 'pnum', 'data-high': p.name }));
+      }));
+      this.sigma = new Map(d.genes.map((g) => [g.name, g.sigma]));
+      showError(u.error, '');
+    } catch (err) { showError(this.ui.error, err.message); }
+  }
+
+  genes() {
+    const out = [];
+    for (const box of this.ui.genes.querySelectorAll('input[data-gene]')) {
+      if (!box.checked) continue;
+      const name = box.dataset.gene;
+      const low = Number(this.ui.genes.querySelector(`input[data-low="${name}"]`).value);
+      const high = Number(this.ui.genes.querySelector(`input[data-high="${name}"]`).value);
+      const gene = { name, low, high };
+      if (this.sigma.has(name)) gene.sigma = this.sigma.get(name);
+      out.push(gene);
+    }
+    return out;
+  }
+
+  async start() {
+    const u = this.ui;
+    showError(u.error, '');
+    const body = {
+      model: { library: u.model.value }, fitness: u.fitness.value, strategy: u.strategy.value,
+      population: Number(u.population.value), generations: Number(u.generations.value),
+      size: Number(u.size.value), steps: Number(u.steps.value), dt: Number(u.dt.value),
+      seed: Number(u.seed.value), init: this.init_kind, genes: this.genes(),
+    };
+    try {
+      this.status = await api('/api/evolve', { method: 'POST', body });
+      u.grid.replaceChildren();
+      this.shownGen = 0;
+      this.poll();
+    } catch (err) { showError(u.error, err.message); }
+  }
+
+  async poll() {
+    clearTimeout(this.timer);
+    const run = this.status?.run;
+    if (!run) return;
+    try {
+      this.status = await api(`/api/evolve/${run}`);
+    } catch (err) { showError(this.ui.error, err.message); return; }
+    await this.render();
+    if (['running', 'choose'].includes(this.status.state)) {
+      this.timer = setTimeout(() => this.poll(), this.status.state === 'choose' ? 1000 : 300);
+    }
+  }
+
+  async render() {
+    const st = this.status;
+    const u = this.ui;
+    const active = ['running', 'choose'].includes(st.state);
+    u.start.disabled = active;
+    u.stop.hidden = !active;
+    u.bar.hidden = st.state !== 'running';
+    u.bar.value = (st.gen - 1 + st.progress) / st.total;
+    u.message.textContent = `run ${st.run} · ${st.state} · generation ${st.gen} of ${st.total}`
+      + (st.message ? ` · ${st.message}` : '');
+    u.log.textContent = st.log.join('\n');
+    if (st.error) showError(u.error, st.error);
+    if (st.state === 'choose' && this.shownGen !== st.gen) {
+      this.shownGen = st.gen;
+      this.picked.clear();
+      this.showTiles(st.images.map((src, i) => ({ src, caption: `#${i}`, idx: i })), true);
+    } else if (st.state !== 'choose' && st.fitness !== 'user' || st.state === 'done') {
+      const last = st.state === 'done' ? st.total : st.gen - 1;
+      if (last >= 1 && this.shownGen !== -last) {
+        this.shownGen = -last;
+        const g = await api(`/api/runs/${st.run}/generations/${last}`);
+        this.showTiles(g.individuals.map((ind) => ({
+          src: ind.image, caption: `#${ind.idx} f=${fmt(ind.fitness ?? NaN)}`, idx: ind.idx,
+          open: { ...g.explore, params: ind.params },
+        })), false);
+      }
+    }
+    u.next.disabled = !(st.state === 'choose' && this.picked.size > 0);
+  }
+
+  showTiles(items, choosing) {
+    const grid = this.ui.grid;
+    const cols = Math.ceil(Math.sqrt(items.length * 1.5));
+    grid.style.gridTemplateColumns = `repeat(${cols}, minmax(60px, 160px))`;
+    grid.replaceChildren(...items.map((it) => {
+      const tile = el('button', { type: 'button', class: 'tile', 'data-idx': it.idx, title: choosing ? 'choose' : 'open in Explore' },
+        el('img', { src: it.src, alt: it.caption }), el('span', { class: 'cap', text: it.caption }));
+      tile.addEventListener('click', () => {
+        if (choosing) {
+          if (this.picked.has(it.idx)) this.picked.delete(it.idx); else this.picked.add(it.idx);
+          tile.classList.toggle('picked', this.picked.has(it.idx));
+          this.ui.next.disabled = this.picked.size === 0;
+        } else if (it.open) {
+          this.app.openInExplore(it.open);
+        }
+      });
+      return tile;
+    }));
+  }
+
+  async next() {
+    const u = this.ui;
+    u.next.disabled = true;
+    try {
+      this.status = await api(`/api/evolve/${this.status.run}/select`, {
+        method: 'POST', body: { indices: [...this.picked].sort((a, b) => a - b) },
+      });
+      this.poll();
+    } catch (err) { showError(u.error, err.message); u.next.disabled = false; }
+  }
+
+  async stop() {
+    try {
+      this.status = await api(`/api/evolve/${this.status.run}/stop`, { method: 'POST' });
+      this.poll();
+    } catch (err) { showError(this.ui.error, err.message); }
+  }
 }

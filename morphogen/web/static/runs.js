@@ -1,5 +1,101 @@
-// placeholder replaced below
+// Runs: browse the archive shared with `morphogen evolve` and `morphogen runs` — runs,
+// generations with their contact sheets, best individuals; open any individual in Explore.
+
+import { api, el, fmt, showError } from './api.js';
+
 export class Runs {
-  constructor(root, app) { this.root = root; this.app = app; }
-  async init() {}
+  constructor(root, app) {
+    this.root = root.querySelector('#runs-root');
+    this.app = app;
+    window.morphogenRuns = this;
+  }
+
+  async init() {
+    this.error = el('div', { class: 'error', hidden: '' });
+    this.list = el('div', { id: 'runs-list' });
+    this.detail = el('div', { id: 'runs-detail' });
+    this.root.append(
+      el('div', { class: 'toolbar' }, el('button', { type: 'button', text: 'Refresh', onclick: () => this.refresh() }),
+        el('span', { id: 'runs-archive', class: 'muted small' })),
+      this.error, this.list, this.detail,
+    );
+  }
+
+  show() { this.refresh(); }
+
+  async refresh() {
+    try {
+      const data = await api('/api/runs');
+      this.root.querySelector('#runs-archive').textContent = `archive: ${data.archive}`;
+      if (!data.runs.length) {
+        this.list.replaceChildren(el('p', { class: 'muted', text: 'No runs yet: start one on the Evolve page or with `morphogen evolve`.' }));
+        return;
+      }
+      const head = el('tr', {}, ...['run', 'model', 'strategy', 'fitness', 'population', 'generations', 'best', 'status']
+        .map((h) => el('th', { text: h })));
+      const rows = data.runs.map((r) => {
+        const tr = el('tr', { 'data-run': r.id },
+          el('td', { class: 'mono', text: r.id }), el('td', { text: r.model }), el('td', { text: r.strategy }),
+          el('td', { text: r.fitness }), el('td', { text: r.population }),
+          el('td', { text: `${r.done}/${r.generations}` }), el('td', { text: r.best == null ? '–' : fmt(r.best) }),
+          el('td', { text: r.status }));
+        tr.addEventListener('click', () => this.open(r.id));
+        return tr;
+      });
+      this.list.replaceChildren(el('table', { class: 'runs' }, el('thead', {}, head), el('tbody', {}, ...rows)));
+      showError(this.error, '');
+    } catch (err) { showError(this.error, err.message); }
+  }
+
+  async open(id) {
+    for (const tr of this.list.querySelectorAll('tr[data-run]')) tr.classList.toggle('sel', tr.dataset.run === id);
+    try {
+      const run = await api(`/api/runs/${id}`);
+      this.run = run;
+      const genes = run.genes.map((g) => `${g.name} ∈ [${fmt(g.low)}, ${fmt(g.high)}]`).join(', ');
+      const p = run.problem;
+      const picker = el('select', { id: 'runs-gen', 'aria-label': 'generation' },
+        ...run.history.map((g) => el('option', { value: g.gen, text: `generation ${g.gen} (best ${fmt(g.best ?? NaN)})` })));
+      this.sheet = el('div', { id: 'runs-sheet' });
+      picker.addEventListener('change', () => this.generation(Number(picker.value)));
+      this.detail.replaceChildren(
+        el('h3', { text: `${run.model} · ${run.strategy} · ${run.fitness}` }),
+        el('p', { class: 'muted small', text: `genes: ${genes}; grid ${p.size.join('×')}, ${p.steps} steps of dt = ${fmt(p.dt)}, initial ${p.init}` }),
+        run.fitness_plot ? el('img', { src: run.fitness_plot, alt: 'fitness over generations', class: 'sheet' }) : null,
+        el('h4', { text: 'Best individuals' }),
+        this.tiles(run.best, run.explore),
+        el('h4', { text: 'Generations' }),
+        run.history.length ? picker : el('p', { class: 'muted', text: 'no generation recorded yet' }),
+        this.sheet,
+      );
+      if (run.history.length) {
+        picker.value = run.history[run.history.length - 1].gen;
+        await this.generation(Number(picker.value));
+      }
+    } catch (err) { showError(this.error, err.message); }
+  }
+
+  async generation(gen) {
+    const g = await api(`/api/runs/${this.run.id}/generations/${gen}`);
+    const sheet = this.run.history.find((h) => h.gen === gen).sheet;
+    this.sheet.replaceChildren(
+      el('img', { src: sheet, alt: `contact sheet of generation ${gen}`, class: 'sheet' }),
+      el('p', { class: 'muted small', text: 'Click an individual to open it in Explore.' }),
+      this.tiles(g.individuals, g.explore),
+    );
+  }
+
+  tiles(individuals, explore) {
+    const grid = el('div', { class: 'grid-pop' });
+    grid.style.gridTemplateColumns = 'repeat(auto-fill, minmax(110px, 1fr))';
+    grid.append(...individuals.map((ind) => {
+      const tile = el('div', { class: 'tile', 'data-gen': ind.gen, 'data-idx': ind.idx },
+        el('img', { src: ind.image, alt: `generation ${ind.gen} individual ${ind.idx}` }),
+        el('span', { class: 'cap', text: `g${ind.gen} #${ind.idx} f=${fmt(ind.fitness ?? NaN)}` }));
+      tile.addEventListener('click', () => this.app.openInExplore({ ...explore, params: ind.params }));
+      const link = el('a', { href: ind.config, download: '', class: 'small', text: 'run.json' });
+      return el('div', {}, tile, link);
+    }));
+    return grid;
+  }
 }

@@ -1,0 +1,186 @@
+"""Evolve runs driven from the browser: Skaggs's user-guided GA, or an automatic fitness.
+
+A run is created with :func:`morphogen.search.run.start` (so it lands in the same SQLite archive
+as ``morphogen evolve``) and advanced by :func:`morphogen.search.run.evolve` in its own thread.
+With human fitness (``fitness="user"``), ``evolve`` asks for a selection after evaluating each
+generation; here that call waits until the page posts the chosen indices, which become the
+fitness of Skaggs eq. 3.9 (:func:`morphogen.search.fitness.human_fitness`). The page polls the
+run's status (``running`` with progress, ``choose`` with the generation's pictures, ``done``,
+``stopped`` or ``error``).
+
+A run that waits for a choice longer than ``Limits.session_idle_s`` stops; it stays in the
+archive and ``morphogen evolve --resume RUN`` continues it.
+"""
+
+from __future__ import annotations
+
+import threading
+import traceback
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from morphogen.errors import MorphogenError
+from morphogen.search.archive import Archive
+from morphogen.search.evaluate import Problem
+from morphogen.search.executors import LocalExecutor
+from morphogen.search.fitness import check_selection
+from morphogen.search.run import evolve
+
+MAX_ACTIVE = 4
+"""Runs advancing at once (each holds a thread while it simulates or waits for a choice)."""
+
+
+class Stopped(MorphogenError):
+    """The run was stopped from the page (or waited too long for a choice)."""
+
+
+@dataclass
+class EvolveRun:
+    """One run driven by a thread; the fields are what the page polls."""
+
+    run_id: str
+    archive: Archive
+    problem: Problem
+    total: int
+    population: int
+    idle_s: float
+    state: str = "running"  # running | choose | done | stopped | error
+    gen: int = 1
+    progress: float = 0.0
+    message: str = ""
+    error: str | None = None
+    log: list[str] = field(default_factory=list)
+    _chosen: list[int] | None = None
+    _wake: threading.Event = field(default_factory=threading.Event)
+    _stop: threading.Event = field(default_factory=threading.Event)
+
+    # -- called from the page -----------------------------------------------------------------
+    def choose(self, indices: Any) -> None:
+        """Hand over the favourites of the generation on show (validated)."""
+        if self.state != "choose":
+            raise MorphogenError("this run is not waiting for a choice")
+        if not isinstance(indices, list):
+            raise MorphogenError("indices must be a list of individual numbers")
+        self._chosen = check_selection(indices, self.population)
+        self.state, self.progress = "running", 0.0
+        self.message = f"generation {self.gen}: {len(self._chosen)} chosen; breeding the next"
+        self._wake.set()
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._wake.set()
+
+    # -- called by search.run.evolve in the run's thread --------------------------------------
+    def select(self, sheet: str, n: int) -> list[int]:
+        """Wait for the page's choice (``evolve``'s human-selection callback)."""
+        self.gen = len(self.archive.generations(self.run_id)) + 1
+        self.progress = 1.0
+        self.message = f"generation {self.gen}: choose your favourites"
+        self._chosen = None
+        self._wake.clear()
+        self.state = "choose"
+        if not self._wake.wait(self.idle_s) and self._chosen is None:
+            self._stop.set()
+        if self._stop.is_set():
+            raise Stopped("stopped while waiting for a choice")
+        self.state = "running"
+        return self._chosen or []
+
+    def thread_main(self) -> None:
+        try:
+            executor = _Tracked(LocalExecutor(self.problem), self)
+            evolve(self.run_id, self.archive, executor, select=self.select,
+                   log=self.log.append)
+        except Stopped as exc:
+            self.state, self.message = "stopped", str(exc)
+            self.archive.set_status(self.run_id, "stopped")
+        except MorphogenError as exc:
+            self.state, self.error = "error", str(exc)
+            self.archive.set_status(self.run_id, "failed")
+        except Exception as exc:  # a bug must reach the page as a message, not a hang
+            traceback.print_exc()
+            self.state, self.error = "error", f"internal error: {type(exc).__name__}: {exc}"
+        else:
+            self.state, self.progress = "done", 1.0
+            self.message = f"finished {self.total} generations"
+
+    def to_json(self) -> dict[str, Any]:
+        """Status for the page; while waiting for a choice, the pictures to choose from."""
+        out = {
+            "run": self.run_id, "state": self.state, "gen": self.gen, "total": self.total,
+            "population": self.population, "progress": round(self.progress, 4),
+            "message": self.message, "error": self.error, "log": self.log[-5:],
+            "fitness": self.problem.fitness,
+        }
+        if self.state == "choose":
+            out["images"] = [
+                f"/api/runs/{self.run_id}/files/generations/gen_{self.gen:03d}/ind_{i:02d}.png"
+                for i in range(self.population)
+            ]
+        return out
+
+
+class _Tracked:
+    """An executor that reports evaluation progress to the run and honours its stop flag."""
+
+    def __init__(self, inner: LocalExecutor, run: EvolveRun):
+        self.inner, self.run = inner, run
+        self.unit = inner.unit
+
+    def total(self, population: int) -> int:
+        return self.inner.total(population)
+
+    def evaluate(self, genomes: np.ndarray, key: Any, update: Any = None):
+        run = self.run
+        run.gen = len(run.archive.generations(run.run_id)) + 1
+        total = self.inner.total(len(genomes))
+        done = 0
+
+        def tick(n: int) -> None:
+            nonlocal done
+            if run._stop.is_set():
+                raise Stopped("stopped")
+            done += n
+            run.progress = done / total
+            run.message = f"generation {run.gen}/{run.total}: {done} of {total} steps"
+            if update is not None:
+                update(n)
+
+        run.progress, run.state = 0.0, "running"
+        return self.inner.evaluate(genomes, key, tick)
+
+
+class EvolveRuns:
+    """The runs started from the web app, by run id."""
+
+    def __init__(self, idle_s: float):
+        self.idle_s = idle_s
+        self._runs: dict[str, EvolveRun] = {}
+        self._lock = threading.Lock()
+
+    def launch(self, archive: Archive, run_id: str, problem: Problem, total: int,
+               population: int) -> EvolveRun:
+        with self._lock:
+            active = [r for r in self._runs.values() if r.state in ("running", "choose")]
+            if len(active) >= MAX_ACTIVE:
+                raise MorphogenError(
+                    f"{MAX_ACTIVE} evolve runs are already in progress; stop one first"
+                )
+            run = EvolveRun(run_id, archive, problem, total, population, self.idle_s)
+            self._runs[run_id] = run
+        threading.Thread(target=run.thread_main, name=f"evolve-{run_id}", daemon=True).start()
+        return run
+
+    def get(self, run_id: str) -> EvolveRun:
+        with self._lock:
+            run = self._runs.get(run_id)
+        if run is None:
+            raise MorphogenError(f"no evolve run {run_id!r} in progress on this server")
+        return run
+
+    def stop_all(self) -> None:
+        with self._lock:
+            for run in self._runs.values():
+                run.stop()

@@ -1,0 +1,164 @@
+"""Routes of the Evolve page: set up a run, follow it, hand over favourites, stop it.
+
+Genes default to Skaggs's tables 3.1-3.2 where the search package has a preset (Gray-Scott,
+Gierer-Meinhardt, GenRD); for the other library models every parameter that is not a diffusion
+coefficient (a name starting with ``D``) is a gene on ``[v/2, 3v/2]`` around its default ``v``
+(``[-1, 1]`` for a zero default), with a mutation width of a tenth of the range.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter, Request
+
+from morphogen.errors import MorphogenError
+from morphogen.models.model import Model
+from morphogen.search.archive import Archive
+from morphogen.search.evaluate import Evaluator, Problem
+from morphogen.search.genes import Gene, check_genes, preset_genes
+from morphogen.search.run import STRATEGIES, start
+from morphogen.web.batch import colour_map
+from morphogen.web.catalog import check_params, resolve_model
+from morphogen.web.limits import (
+    JSONBody,
+    Limits,
+    check_budget,
+    choice,
+    integer,
+    number,
+    run_limited,
+)
+from morphogen.web.live import INITIAL_KINDS
+
+router = APIRouter(prefix="/api/evolve")
+
+FITNESS = ("user", "dirichlet")
+MAX_GENERATIONS = 200
+MAX_GENES = 128
+
+
+def default_genes(model: Model) -> list[Gene]:
+    """Skaggs's preset genes for the model, or the rule in the module docstring."""
+    try:
+        return preset_genes(model.name, list(model.params))
+    except MorphogenError:
+        pass
+    genes = []
+    for name, value in model.params.items():
+        if name.startswith("D"):
+            continue
+        v = float(value)
+        lo, hi = (0.5 * v, 1.5 * v) if v > 0 else (1.5 * v, 0.5 * v) if v < 0 else (-1.0, 1.0)
+        genes.append(Gene(name, lo, hi, 0.1 * (hi - lo)))
+    return genes
+
+
+def defaults(model: Model, limits: Limits) -> dict[str, Any]:
+    """Suggested settings for an Evolve run of ``model`` that fit the server's budget."""
+    size, population = 64, 12
+    dt = float(model.dt)
+    steps = max(1, round(model.t_end / dt))
+    steps = min(steps, int(limits.max_cell_steps / (population * size * size)))
+    init = model.init if model.init in INITIAL_KINDS else "square"
+    return {
+        "genes": [g.to_dict() for g in default_genes(model)],
+        "params": [{"name": k, "value": float(v)} for k, v in model.params.items()],
+        "size": size, "population": population, "generations": 20, "dt": dt, "steps": steps,
+        "init": init, "fitness": "user", "strategy": "ga", "seed": 0,
+    }
+
+
+def parse_genes(raw: Any, model: Model) -> tuple[Gene, ...]:
+    if raw is None:
+        return tuple(default_genes(model))
+    if not isinstance(raw, list) or not raw or len(raw) > MAX_GENES:
+        raise MorphogenError(f"genes must be a list of 1 to {MAX_GENES} {{name, low, high}}")
+    genes = []
+    for g in raw:
+        if not isinstance(g, dict):
+            raise MorphogenError("each gene must be {name, low, high, sigma}")
+        name = g.get("name")
+        lo = number(g.get("low"), f"gene {name} low", -1e6, 1e6)
+        hi = number(g.get("high"), f"gene {name} high", -1e6, 1e6)
+        sigma = g.get("sigma")
+        sigma = 0.1 * (hi - lo) if sigma is None else number(sigma, f"gene {name} sigma", 0, 1e6)
+        genes.append(Gene(str(name), lo, hi, sigma))
+    check_genes(genes, list(model.params))
+    return tuple(genes)
+
+
+def build(body: dict[str, Any], limits: Limits) -> tuple[Problem, dict[str, Any], int, int]:
+    """A validated ``(problem, strategy spec, generations, seed)`` from a request."""
+    spec = body.get("model", {"library": "gray-scott"})
+    model, _ = resolve_model(spec, limits)
+    d = defaults(model, limits)
+    size = integer(body.get("size", d["size"]), "grid size", 16, limits.max_tile_size)
+    population = integer(body.get("population", d["population"]), "population", 2,
+                         limits.max_population)
+    generations = integer(body.get("generations", d["generations"]), "generations", 1,
+                          MAX_GENERATIONS)
+    dt = number(body.get("dt", d["dt"]), "dt", 1e-6, 1e3)
+    steps = integer(body.get("steps", d["steps"]), "steps", 1, 200_000)
+    check_budget(size * size, steps, population, limits)
+    fitness = choice(body.get("fitness", "user"), "fitness", FITNESS)
+    strategy = choice(body.get("strategy", "ga"), "strategy", tuple(STRATEGIES))
+    init = choice(body.get("init", d["init"]), "initial condition", INITIAL_KINDS)
+    seed = integer(body.get("seed", 0), "seed", 0, 2**31 - 1)
+    problem = Problem(
+        model=model.name if "library" in spec else f"{model.name}.toml",
+        genes=parse_genes(body.get("genes"), model), model_source=model.source,
+        params=check_params(body.get("params"), model), size=(size, size), dt=dt, steps=steps,
+        seed=seed, init=init, fitness=fitness,
+    )
+    strat: dict[str, Any] = {"name": strategy, "population": population}
+    if strategy == "ga":
+        strat.update(elitism=0, tournament=0)
+    return problem, strat, generations, seed
+
+
+def _archive(request: Request) -> Archive:
+    return Archive(request.app.state.archive)
+
+
+@router.get("/setup/{name}")
+async def setup(request: Request, name: str):
+    """Default settings (genes, grid, steps) for a library model."""
+    model, _ = resolve_model({"library": name}, request.app.state.limits)
+    return defaults(model, request.app.state.limits)
+
+
+@router.post("")
+async def create(request: Request, body: JSONBody):
+    """Validate, create the run in the archive, and start it; returns its status."""
+    lim: Limits = request.app.state.limits
+    problem, strat, generations, seed = build(body, lim)
+    cmap = colour_map(body.get("cmap", "viridis"))
+    # building an evaluator checks the model, genes and stability before anything is written
+    await run_limited(lambda: Evaluator(problem), lim.request_timeout_s, "checking the run")
+    archive = _archive(request)
+    run_id, _ = start(problem, strat, generations=generations, seed=seed, archive=archive,
+                      cmap=cmap)
+    run = request.app.state.evolve.launch(archive, run_id, problem, generations,
+                                          strat["population"])
+    return run.to_json()
+
+
+@router.get("/{run_id}")
+async def status(request: Request, run_id: str):
+    return request.app.state.evolve.get(run_id).to_json()
+
+
+@router.post("/{run_id}/select")
+async def select(request: Request, run_id: str, body: JSONBody):
+    """The favourites of the generation on show: ``{"indices": [..]}``."""
+    run = request.app.state.evolve.get(run_id)
+    run.choose(body.get("indices"))
+    return run.to_json()
+
+
+@router.post("/{run_id}/stop")
+async def stop(request: Request, run_id: str):
+    run = request.app.state.evolve.get(run_id)
+    run.stop()
+    return run.to_json()
