@@ -24,7 +24,7 @@ from morphogen.initial import make_initial
 from morphogen.io import ensure_writable_dir, write_json
 from morphogen.models.model import Model
 from morphogen.simulate import Solution, simulate
-from morphogen.steppers import Noise
+from morphogen.steppers import Noise, max_stable_dt
 
 FORMAT = "morphogen-run/1"
 
@@ -33,7 +33,8 @@ FORMAT = "morphogen-run/1"
 class RunConfig:
     """Everything that determines a simulation and its pictures.
 
-    ``steps`` or ``time`` may be ``None``: the model's suggested ``t_end`` and ``dt`` fill in.
+    ``steps`` or ``time`` may be ``None``: the model's suggested ``t_end`` and ``dt`` fill in
+    (the suggested ``dt`` is reduced to 90 % of the stability limit when the domain needs it).
     ``clamp`` is ``"model"`` (the model's own bounds), ``None`` or ``[lo, hi]``.
     """
 
@@ -132,7 +133,7 @@ def prepare(config: RunConfig) -> Prepared:
     domain = build_domain(config, model)
     values = model.parameters(config.params, preset=config.preset)
     params = resolve_params(model, domain, values)
-    dt = float(config.dt if config.dt is not None else model.dt)
+    dt = float(config.dt) if config.dt is not None else _default_dt(model, domain, params, config)
     if config.steps is not None and config.time is not None:
         raise MorphogenError("give either --steps or --time, not both")
     if config.steps is not None:
@@ -147,6 +148,13 @@ def prepare(config: RunConfig) -> Prepared:
     u0 = make_initial(config.init or model.init, model, domain, values, seed=config.seed,
                       **config.init_options)
     return Prepared(config, model, domain, params, u0, dt, steps)
+
+
+def _default_dt(model: Model, domain: Any, params: dict, config: RunConfig) -> float:
+    """The model's suggested dt, reduced to 90 % of the stability limit where the domain
+    (a 3D grid, a fine mesh, a larger diffusion) needs it."""
+    limit = max_stable_dt(model, domain, params, config.scheme)
+    return float(min(model.dt, 0.9 * limit))
 
 
 def run_prepared(prep: Prepared, *, progress: bool = False) -> Solution:

@@ -1,0 +1,166 @@
+"""The ``morphogen`` command end to end, and its handling of bad input."""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from morphogen.cli.main import COMMANDS, main
+
+SCHNAKENBERG = """\
+name = "schnakenberg"
+species = ["u", "v"]
+[parameters]
+a = 0.1
+b = 0.9
+Du = 1.0
+Dv = 40.0
+[equations]
+u = "a - u + u**2*v + Du*lap(u)"
+v = "b - u**2*v + Dv*lap(v)"
+"""
+
+
+def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    env = {**os.environ, "JAX_PLATFORMS": "cpu"}
+    return subprocess.run([sys.executable, "-m", "morphogen.cli.main", *args], cwd=cwd,
+                          capture_output=True, text=True, env=env, timeout=600)
+
+
+def test_simulate_writes_outputs_and_config_reproduces(tmp_path):
+    out = tmp_path / "gs"
+    assert main(["simulate", "gray-scott", "--size", "48x48", "--steps", "400", "--every",
+                 "100", "--seed", "4", "-p", "F=0.03", "--out", str(out), "--quiet"]) == 0
+    for name in ("state.npz", "final.png", "run.json", "animation.gif"):
+        assert (out / name).is_file()
+    record = json.loads((out / "run.json").read_text())
+    assert record["config"]["params"] == {"F": 0.03}
+    assert record["resolved"]["steps"] == 400
+    assert {"jax", "numpy", "morphogen", "wall_time_s"} <= set(record["provenance"])
+    again = tmp_path / "again"
+    assert main(["simulate", "--config", str(out / "run.json"), "--out", str(again),
+                 "--quiet"]) == 0
+    a, b = np.load(out / "state.npz"), np.load(again / "state.npz")
+    assert set(a.files) == {"u", "v"}
+    for s in a.files:
+        np.testing.assert_array_equal(a[s], b[s])
+
+
+def test_equation_file_runs_and_its_text_travels_in_run_json(tmp_path):
+    model_file = tmp_path / "schnak.toml"
+    model_file.write_text(SCHNAKENBERG)
+    out = tmp_path / "run"
+    assert main(["simulate", str(model_file), "--size", "32x32", "--steps", "50", "--dt",
+                 "0.005", "--out", str(out), "--quiet"]) == 0
+    model_file.unlink()
+    record = json.loads((out / "run.json").read_text())
+    assert "lap(u)" in record["config"]["model_source"]
+    assert main(["simulate", "--config", str(out / "run.json"), "--out", str(tmp_path / "r2"),
+                 "--quiet"]) == 0
+
+
+def test_3d_run_writes_slice_and_montage(tmp_path):
+    out = tmp_path / "vol"
+    assert main(["simulate", "gray-scott", "--size", "12x16x16", "--steps", "20",
+                 "--out", str(out), "--quiet"]) == 0
+    assert (out / "final.png").is_file() and (out / "montage.png").is_file()
+    assert np.load(out / "state.npz")["v"].shape == (12, 16, 16)
+
+
+def test_atlas_is_one_labelled_mosaic(tmp_path):
+    out = tmp_path / "atlas"
+    assert main(["atlas", "gray-scott", "--x", "k=0.05:0.065:3", "--y", "F=0.02:0.05:2",
+                 "--size", "24x24", "--steps", "100", "--out", str(out), "--quiet"]) == 0
+    data = np.load(out / "atlas.npz")
+    assert data["v"].shape == (2, 3, 24, 24)
+    np.testing.assert_allclose(data["k"], [0.05, 0.0575, 0.065])
+    assert (out / "atlas.png").is_file()
+
+
+def test_models_lists_every_library_model(capsys):
+    from morphogen.models.library import LIBRARY
+
+    assert main(["models"]) == 0
+    text = capsys.readouterr().out
+    for name in LIBRARY:
+        assert f"{name}:" in text
+    assert "F=0.037" in text
+
+
+@pytest.mark.parametrize("module", COMMANDS)
+def test_every_command_answers_help(module):
+    parser_name = module.rsplit(".", 1)[1].removesuffix("_cmd").replace("_", "-")
+    importlib.import_module(module)
+    with pytest.raises(SystemExit) as info:
+        main([parser_name, "--help"])
+    assert info.value.code == 0
+
+
+BAD_INPUTS = [
+    (["simulate", "grey-scott"], "unknown model"),
+    (["simulate", "gray-scott", "-p", "kill=0.06"], "unknown parameter"),
+    (["simulate", "gray-scott", "-p", "F=abc("], "parameter F"),
+    (["simulate", "gray-scott", "--size", "-5x10"], "--size"),
+    (["simulate", "gray-scott", "--size", "64"], "--size"),
+    (["simulate", "gray-scott", "--steps", "ten"], "whole number"),
+    (["simulate", "gray-scott", "--dt", "5", "--size", "16x16"], "stability limit"),
+    (["simulate", "gray-scott", "--init", "sprinkles"], "unknown initial"),
+    (["simulate", "gray-scott", "--boundary", "sticky"], "unknown boundary"),
+    (["simulate", "gray-scott", "--clamp", "5:1"], "--clamp"),
+    (["simulate", "missing.toml"], "not found"),
+    (["simulate", "--config", "nope.json"], "cannot read run file"),
+    (["atlas", "gray-scott", "--x", "F=0.01:0.07", "--y", "k=0.04:0.07:3"], "NAME=START"),
+    (["frobnicate"], "invalid choice"),
+]
+
+
+@pytest.mark.parametrize("args, message", BAD_INPUTS)
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, args, message):
+    out = tmp_path / "out"
+    extra = ["--out", str(out)] if args[0] in ("simulate", "atlas") else []
+    result = run_cli(*args, *extra, cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
+    assert message in lines[0]
+    assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [(SCHNAKENBERG.replace("a - u", "__import__('os').system('touch pwned') - u"), "line 9"),
+     (SCHNAKENBERG.replace("Du*lap(u)", "Du*lap(u"), "line 9"),
+     ("species = [", "TOML")],
+)
+def test_malformed_or_unsafe_model_files(tmp_path, text, message):
+    path = tmp_path / "m.toml"
+    path.write_text(text)
+    result = run_cli("simulate", str(path), "--out", str(tmp_path / "o"), cwd=tmp_path)
+    assert result.returncode == 2
+    assert len(result.stderr.strip().splitlines()) == 1
+    assert message in result.stderr
+    assert not (tmp_path / "pwned").exists()
+
+
+def test_unwritable_output_directory(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    result = run_cli("simulate", "gray-scott", "--size", "16x16", "--steps", "2",
+                     "--out", str(blocker / "sub"))
+    assert result.returncode == 2
+    assert "output directory" in result.stderr and len(result.stderr.splitlines()) == 1
+
+
+def test_blow_up_is_reported_with_step(tmp_path):
+    result = run_cli("simulate", "gray-scott", "--size", "16x16", "--steps", "400",
+                     "-p", "F=5", "-p", "k=-3", "--out", str(tmp_path / "o"))
+    assert result.returncode == 2
+    assert "blow-up at step" in result.stderr
+    assert not (tmp_path / "o" / "state.npz").exists()
