@@ -129,8 +129,11 @@ def error_at(node: ast.AST, text: str, reason: str) -> ExpressionError:
 
     ``ast`` gives columns as UTF-8 byte offsets; they are converted to characters.
     """
-    line = getattr(node, "lineno", 1)
-    offset = getattr(node, "col_offset", 0)
+    line, offset = getattr(node, "lineno", 1), getattr(node, "col_offset", 0)
+    return _error_at_offset(line, offset, text, reason)
+
+
+def _error_at_offset(line: int, offset: int, text: str, reason: str) -> ExpressionError:
     lines = text.splitlines() or [""]
     source = lines[line - 1] if 0 < line <= len(lines) else ""
     column = len(source.encode("utf-8")[:offset].decode("utf-8", "replace")) + 1
@@ -283,9 +286,11 @@ def _check(
         _check_call(node, text, functions, depth=deeper, in_condition=in_condition)
         return
     kind = _DESCRIBE.get(type(node), f"'{type(node).__name__}'")
-    if isinstance(node, ast.Attribute):
-        # point at the '.', not at the start of the object
-        node = ast.Name("", lineno=node.value.end_lineno, col_offset=node.value.end_col_offset)
+    if isinstance(node, ast.Attribute):  # point at the '.', not at the start of the object
+        end = node.value
+        raise _error_at_offset(
+            end.end_lineno, end.end_col_offset, text, f"{kind} is not allowed; use {_ALLOWED}"
+        )
     raise error_at(node, text, f"{kind} is not allowed; use {_ALLOWED}")
 
 
