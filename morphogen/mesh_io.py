@@ -1,0 +1,224 @@
+"""PLY files in and out of mesh simulations (Ringham et al. §3.1: PLY in, coloured PLY out).
+
+Reading (:func:`load_mesh`, :func:`ply_fields`) uses ``plyfile`` for ASCII and binary PLY and
+keeps the file's vertex order exactly (nothing is merged or reordered, so per-vertex fields
+stay aligned). Every per-vertex property other than ``x, y, z`` becomes a named field (a
+prepattern): colour channels ``red, green, blue, alpha`` stored as bytes are scaled to [0, 1],
+other scalars are kept as they are. Polygons with more than three corners are split into
+triangle fans, with a warning. A field named like a species is that species' initial value; a
+field named like a parameter is that parameter's value per vertex (:func:`apply_fields`).
+
+Writing (:func:`save_ply`, :func:`write_mesh_outputs`) produces binary PLY with vertex colours
+and every morphogen and field as a named float property, atomically.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.colors import Colormap
+
+from morphogen.domains.mesh import Mesh
+from morphogen.errors import MorphogenError
+from morphogen.io import ensure_writable_dir, write_atomic
+from morphogen.models.model import Model, Params
+
+COLOUR_CHANNELS = ("red", "green", "blue", "alpha")
+_POSITION = ("x", "y", "z")
+
+
+def _read(path: str | Path):
+    from plyfile import PlyData
+
+    p = Path(path)
+    if not p.is_file():
+        raise MorphogenError(f"mesh file {p} does not exist")
+    try:
+        with open(p, "rb") as fh:
+            return PlyData.read(fh)
+    except MorphogenError:
+        raise
+    except Exception as exc:  # plyfile raises many types (PlyParseError, ValueError, EOFError)
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise MorphogenError(f"cannot read PLY file {p}: {reason}") from None
+
+
+def _vertex_element(ply, path) -> Any:
+    try:
+        vertex = ply["vertex"]
+    except KeyError:
+        raise MorphogenError(f"PLY file {path} has no vertex element") from None
+    names = [prop.name for prop in vertex.properties]
+    missing = [c for c in _POSITION if c not in names]
+    if missing:
+        raise MorphogenError(f"PLY file {path}: vertex element lacks {', '.join(missing)}")
+    return vertex
+
+
+def _fields(vertex) -> dict[str, np.ndarray]:
+    out: dict[str, np.ndarray] = {}
+    for prop in vertex.properties:
+        if prop.name in _POSITION:
+            continue
+        data = vertex.data[prop.name]
+        if data.dtype == object:  # list property: not a scalar field
+            continue
+        values = np.asarray(data, np.float64)
+        if prop.name in COLOUR_CHANNELS and np.asarray(data).dtype == np.uint8:
+            values = values / 255.0
+        out[prop.name] = values
+    return out
+
+
+def ply_fields(path: str | Path) -> dict[str, np.ndarray]:
+    """Every scalar per-vertex property of a PLY file except ``x, y, z``, each ``(V,)``."""
+    ply = _read(path)
+    return _fields(_vertex_element(ply, path))
+
+
+def _faces(ply, path) -> np.ndarray:
+    try:
+        face = ply["face"]
+    except KeyError:
+        raise MorphogenError(f"PLY file {path} has no faces (a point cloud cannot be simulated "
+                             "on; triangulate it first)") from None
+    names = [prop.name for prop in face.properties]
+    key = next((n for n in ("vertex_indices", "vertex_index") if n in names), None)
+    if key is None:
+        raise MorphogenError(f"PLY file {path}: face element lacks vertex_indices")
+    polygons = face.data[key]
+    if len(polygons) == 0:
+        raise MorphogenError(f"PLY file {path} has no faces")
+    sizes = np.array([len(p) for p in polygons])
+    if sizes.min() < 3:
+        raise MorphogenError(f"PLY file {path}: face {int(np.argmin(sizes))} has fewer than "
+                             "3 corners")
+    if sizes.max() == 3:
+        return np.stack([np.asarray(p, np.int64) for p in polygons])
+    warnings.warn(f"{path}: {int((sizes > 3).sum())} polygon(s) with more than 3 corners split "
+                  "into triangle fans", stacklevel=3)
+    tris = [[p[0], p[i], p[i + 1]] for p in polygons for i in range(1, len(p) - 1)]
+    return np.asarray(tris, np.int64)
+
+
+def load_mesh(path: str | Path, **mesh_args: Any) -> Mesh:
+    """Read a PLY file (ASCII or binary) into a :class:`Mesh` with its fields.
+
+    Extra keyword arguments go to :class:`Mesh` (``boundary``, ``omega``, ...).
+
+    Raises:
+        MorphogenError: missing or corrupt file, no faces, non-manifold or degenerate mesh.
+    """
+    ply = _read(path)
+    vertex = _vertex_element(ply, path)
+    vertices = np.stack([np.asarray(vertex.data[c], np.float64) for c in _POSITION], axis=1)
+    faces = _faces(ply, path)
+    fields = {**_fields(vertex), **mesh_args.pop("fields", {})}
+    return Mesh(vertices, faces, fields=fields, name=mesh_args.pop("name", Path(path).name),
+                **mesh_args)
+
+
+def save_ply(
+    path: str | Path,
+    mesh: Mesh,
+    *,
+    colours: np.ndarray | None = None,
+    fields: Mapping[str, np.ndarray] | None = None,
+    binary: bool = True,
+) -> Path:
+    """Write a mesh with per-vertex colours ``(V, 3)`` uint8 and named float fields, atomically.
+
+    The mesh's own fields are written too (after them, ``fields`` wins on a name clash); colour
+    channel names are reserved for ``colours``.
+    """
+    from plyfile import PlyData, PlyElement
+
+    data = {**mesh.fields, **(fields or {})}
+    props: list[tuple[str, str]] = [("x", "f8"), ("y", "f8"), ("z", "f8")]
+    columns: list[np.ndarray] = [mesh.vertices[:, i] for i in range(3)]
+    if colours is not None:
+        colours = np.asarray(colours)
+        if colours.shape != (mesh.n_vertices, 3) or colours.dtype != np.uint8:
+            raise MorphogenError(f"colours must be uint8 of shape ({mesh.n_vertices}, 3)")
+        props += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
+        columns += [colours[:, i] for i in range(3)]
+    for name, values in data.items():
+        if name in _POSITION or (colours is not None and name in COLOUR_CHANNELS):
+            continue
+        if not name.isidentifier():
+            raise MorphogenError(f"field name {name!r} cannot be a PLY property name")
+        values = np.asarray(values)
+        if values.shape != (mesh.n_vertices,):
+            raise MorphogenError(f"field {name!r} has shape {values.shape}, expected "
+                                 f"({mesh.n_vertices},)")
+        props.append((name, "f4"))
+        columns.append(values.astype(np.float32))
+    table = np.empty(mesh.n_vertices, dtype=props)
+    for (name, _), col in zip(props, columns, strict=True):
+        table[name] = col
+    faces = np.empty(mesh.n_faces, dtype=[("vertex_indices", "i4", (3,))])
+    faces["vertex_indices"] = mesh.faces.astype(np.int32)
+    ply = PlyData([PlyElement.describe(table, "vertex"), PlyElement.describe(faces, "face")],
+                  text=not binary)
+    ensure_writable_dir(Path(path).parent)
+    return write_atomic(path, ply.write)
+
+
+def apply_fields(
+    model: Model, mesh: Mesh, u0: np.ndarray, params: Params
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """Use a mesh's fields named like species as initial values and like parameters as
+    per-vertex parameter values; ``u0`` is ``(S, V)``. Returns new ``(u0, params)``."""
+    u = np.array(u0, np.float32, copy=True)
+    for i, s in enumerate(model.species):
+        if s in mesh.fields:
+            u[i] = mesh.fields[s]
+    out = dict(params)
+    for name in model.params:
+        if name in mesh.fields:
+            out[name] = np.asarray(mesh.fields[name], np.float32)
+    return u, out
+
+
+def write_mesh_outputs(
+    out_dir: str | Path,
+    mesh: Mesh,
+    model: Model,
+    state: np.ndarray,
+    cmap: Any = "viridis",
+    name: str = "out",
+    *,
+    species: str | None = None,
+    view: Any = "oblique",
+    size: tuple[int, int] = (800, 800),
+) -> list[Path]:
+    """Write ``NAME.ply`` (vertex colours of the display species through ``cmap``, every
+    species as a named property, the mesh's fields) and ``NAME.png`` (a rendered view).
+
+    Args:
+        state: ``(S, V)`` final concentrations in the mesh's vertex order.
+        cmap: a colour map name or ramp (see :func:`morphogen.render.colourise`), or a callable
+            ``values (V,) -> (V, 3) uint8`` such as a step transfer function.
+        species: the species shown (default: the model's display species).
+    """
+    from morphogen.render.colour import colourise
+    from morphogen.render.images import write_png
+    from morphogen.render.mesh import render_mesh
+
+    state = np.asarray(state)
+    if state.shape != (len(model.species), mesh.n_vertices):
+        raise MorphogenError(f"state has shape {state.shape}, expected "
+                             f"({len(model.species)}, {mesh.n_vertices})")
+    out = ensure_writable_dir(out_dir)
+    shown = state[model.species_index(species or model.display_species)]
+    named = isinstance(cmap, str | Colormap)
+    colours = colourise(shown, cmap) if named else np.asarray(cmap(shown), np.uint8)
+    species_fields = {s: state[i] for i, s in enumerate(model.species)}
+    ply = save_ply(out / f"{name}.ply", mesh, colours=colours, fields=species_fields)
+    image = render_mesh(mesh.vertices, mesh.faces, colours, view=view, size=size)
+    png = write_png(out / f"{name}.png", image)
+    return [ply, png]

@@ -1,0 +1,118 @@
+"""Coloured triangle meshes to images, headless (matplotlib's Agg canvas, no display, no GPU).
+
+Per-vertex colours are averaged onto faces and shaded with a two-sided Lambert term from a
+light at the camera, then drawn by matplotlib's 3D projection (painter's algorithm). This is a
+preview renderer for checking patterns, in the spirit of Ringham et al. §3.5, not a replacement
+for a physically based renderer.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.colors import to_rgb
+from matplotlib.figure import Figure
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+from morphogen.errors import MorphogenError
+
+VIEWS: dict[str, tuple[float, float]] = {
+    "top": (90.0, -90.0),
+    "front": (0.0, -90.0),
+    "side": (0.0, 0.0),
+    "oblique": (55.0, -60.0),
+    "below": (-90.0, -90.0),
+}
+"""Named viewpoints: (elevation, azimuth) in degrees, matplotlib's convention."""
+
+
+def parse_view(view: str | Sequence[float]) -> tuple[float, float]:
+    """A view name from :data:`VIEWS`, ``"ELEV,AZIM"`` or an ``(elev, azim)`` pair."""
+    if isinstance(view, str):
+        if view in VIEWS:
+            return VIEWS[view]
+        try:
+            elev, azim = (float(v) for v in view.split(","))
+        except ValueError:
+            raise MorphogenError(
+                f"unknown view {view!r}; use {', '.join(VIEWS)} or ELEV,AZIM in degrees"
+            ) from None
+        return elev, azim
+    elev, azim = view
+    return float(elev), float(azim)
+
+
+def _camera_direction(elev: float, azim: float) -> np.ndarray:
+    e, a = np.radians(elev), np.radians(azim)
+    return np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+
+
+def render_mesh(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    colours: np.ndarray,
+    *,
+    view: str | Sequence[float] = "oblique",
+    size: tuple[int, int] = (800, 800),
+    background: str = "white",
+    shade: float = 0.6,
+) -> np.ndarray:
+    """Render a mesh with per-vertex colours.
+
+    Args:
+        vertices: ``(V, 3)`` positions.
+        faces: ``(F, 3)`` vertex indices.
+        colours: ``(V, 3)`` uint8 or float RGB in [0, 1].
+        view: a name from :data:`VIEWS` or ``(elevation, azimuth)`` in degrees.
+        size: image ``(width, height)`` in pixels.
+        shade: strength of the Lambert shading, 0 (flat colours) to 1.
+
+    Returns:
+        ``(height, width, 3)`` uint8 RGB.
+    """
+    vertices = np.asarray(vertices, np.float64)
+    faces = np.asarray(faces)
+    colours = np.asarray(colours)
+    if colours.shape != (len(vertices), 3):
+        raise MorphogenError(f"need one RGB colour per vertex, got shape {colours.shape}")
+    rgb = colours.astype(np.float64) / (255.0 if colours.dtype == np.uint8 else 1.0)
+    elev, azim = parse_view(view)
+    tris = vertices[faces]
+    normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+    light = np.abs(normals @ _camera_direction(elev, azim))
+    face_rgb = rgb[faces].mean(axis=1) * ((1.0 - shade) + shade * light)[:, None]
+    width, height = size
+    dpi = 100
+    fig = Figure(figsize=(width / dpi, height / dpi), dpi=dpi, facecolor=background)
+    canvas = FigureCanvasAgg(fig)
+    ax = fig.add_axes((0, 0, 1, 1), projection="3d", facecolor=background)
+    face_rgb = np.clip(face_rgb, 0.0, 1.0)
+    # edges in the face colour close the hairline seams antialiasing leaves between triangles
+    ax.add_collection3d(Poly3DCollection(tris, facecolors=face_rgb, edgecolors=face_rgb,
+                                         linewidths=0.3))
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    centre, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1e-12)
+    for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre, strict=True):
+        setter(c - half, c + half)
+    ax.set_box_aspect((1, 1, 1), zoom=1.35)
+    ax.set_proj_type("ortho")
+    ax.view_init(elev=elev, azim=azim)
+    ax.set_axis_off()
+    canvas.draw()
+    image = np.asarray(canvas.buffer_rgba())[..., :3].copy()
+    return _crop(image, background)
+
+
+def _crop(image: np.ndarray, background: str, margin: int = 8) -> np.ndarray:
+    """Trim uniform background around the drawing, keeping a small margin."""
+    bg = np.rint(np.array(to_rgb(background)) * 255).astype(np.uint8)
+    mask = np.any(image != bg, axis=2)
+    if not mask.any():
+        return image
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    r0, r1 = max(rows[0] - margin, 0), min(rows[-1] + margin + 1, image.shape[0])
+    c0, c1 = max(cols[0] - margin, 0), min(cols[-1] + margin + 1, image.shape[1])
+    return image[r0:r1, c0:c1]
