@@ -5,21 +5,27 @@ import { api, colourTable, el, fillSelect, fmt, showError } from './api.js';
 
 const HEADER_BYTES = 28; // u16 w, u16 h, u32 frame, f32 t, u32 steps, f32 lo, f32 hi, f32 ms
 const EQUATIONS = '__equations__';
-const EXAMPLE = `name = "schnakenberg-pasted"
+const EXAMPLE = `# a model file (TOML): parameters stay runtime values, lap() is diffusion
+name = "schnakenberg-pasted"
 species = ["u", "v"]
+display = "u"
+dt = 0.005
+t_end = 60.0
+init = "noise"
 
 [parameters]
 a = 0.1
 b = 0.9
-Du = 0.05
-Dv = 2.0
+Du = 1.0
+Dv = 40.0
 
 [equations]
 u = "a - u + u**2*v + Du*lap(u)"
 v = "b - u**2*v + Dv*lap(v)"
 
-[run]
-dt = 0.05
+[initial]
+u = "a + b"
+v = "b / (a + b)**2"
 `;
 
 export class Explore {
@@ -220,6 +226,10 @@ export class Explore {
     this.$('ex-size').addEventListener('change', () => this.restart());
     this.$('ex-boundary').addEventListener('change', () => this.restart());
     this.$('ex-run').addEventListener('click', () => this.setRunning(!this.running));
+    this.$('ex-step').addEventListener('click', () => {
+      this.setRunning(false);
+      this.request(true);
+    });
   }
 
   restart() {
@@ -236,7 +246,7 @@ export class Explore {
       });
       this.state = res;
       showError(this.$('ex-error'), '');
-      this.setRunning(true);
+      if (!this.running) this.request(true); // show the new start while paused
     } catch (err) { this.fail(err); }
   }
 
@@ -267,9 +277,10 @@ export class Explore {
     this.ws = ws;
   }
 
-  request() {
+  // ask for the next frame (while running, or once with force)
+  request(force = false) {
     const ws = this.ws;
-    if (!this.running || !this.visible || this.inflight || !ws || ws.readyState !== WebSocket.OPEN) return;
+    if (!(this.running || force) || !this.visible || this.inflight || !ws || ws.readyState !== WebSocket.OPEN) return;
     this.inflight = true;
     ws.send('next');
   }
@@ -360,8 +371,8 @@ export class Explore {
         method: 'POST',
         body: { points, radius: Number(this.$('ex-brush').value), mode: this.$('ex-paint-mode').value },
       });
-      if (!this.running) this.setRunning(true);
       showError(this.$('ex-error'), '');
+      if (!this.running) this.request(true); // show the stroke while paused
     } catch (err) { this.fail(err); }
   }
 
