@@ -1,0 +1,16 @@
+"""Flowers: procedural shapes, vertex sets, random points and positional information.
+
+Ringham et al. (2021) build flower pigmentation models from a shape, a prepattern and a
+sequence of simulations (§3.1-3.4); this package supplies the shape and prepattern parts.
+"""
+
+from morphogen.flowers.planar import grid_mesh as grid_mesh
+from morphogen.flowers.planar import lattice_mesh as lattice_mesh
+from morphogen.flowers.positional import direction_field as direction_field
+from morphogen.flowers.positional import positional_information as positional_information
+from morphogen.flowers.sampling import random_vertices as random_vertices
+from morphogen.flowers.sampling import seed_field as seed_field
+from morphogen.flowers.shapes import SHAPES as SHAPES
+from morphogen.flowers.shapes import corolla as corolla
+from morphogen.flowers.shapes import petal as petal
+from morphogen.flowers.shapes import tube as tube

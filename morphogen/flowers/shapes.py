@@ -1,0 +1,235 @@
+"""Procedural flower shapes: petal blades, radial corollas and tubes with lobes.
+
+Ringham et al. model shapes in Blender (§3.2); these generators give usable shapes without it.
+Each returns a :class:`~morphogen.domains.mesh.Mesh` of nearly equilateral triangles whose
+edges average ``edge`` (mesh units; the flower is about 1 unit across, so ``edge = 0.01`` gives
+roughly 10^4-10^5 vertices), with per-vertex fields for prepatterns and named vertex sets
+(fields of 0/1 used as ``dirichlet=VALUE@SET`` targets, sources and sinks):
+
+============  ==========================================================================
+petal         fields ``s`` (0 at the base, 1 at the tip), ``lateral`` (-1..1 across);
+              sets ``margin``, ``base``, ``midline``
+corolla       fields ``r`` (0 centre .. 1 outer tip), ``theta``, ``petal`` (index), ``phi``
+              (-1..1 across each petal); sets ``margin``, ``throat``, ``midline``
+tube          fields ``s`` (0 base, 1 at the mouth of the tube, >1 on the lobes), ``theta``,
+              ``side`` (``sin theta``: -1 lower, +1 upper), ``lobe``; sets ``margin``,
+              ``base``, ``throat``, ``tube``, ``midline``
+============  ==========================================================================
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from morphogen.domains.mesh import Mesh
+from morphogen.errors import MorphogenError
+from morphogen.flowers.meshing import triangulate
+
+SHAPES = ("petal", "corolla", "tube")
+
+
+def _check(edge: float, **positive: float) -> None:
+    if not (np.isfinite(edge) and 1e-4 <= edge <= 0.5):
+        raise MorphogenError(f"edge must be between 1e-4 and 0.5 (mesh units), got {edge}")
+    for name, value in positive.items():
+        if not (np.isfinite(value) and value > 0):
+            raise MorphogenError(f"{name} must be a positive number, got {value}")
+
+
+def _near(values: np.ndarray, target: float, tol: float) -> np.ndarray:
+    return (np.abs(values - target) <= tol).astype(float)
+
+
+def petal(
+    length: float = 1.0,
+    width: float = 0.7,
+    *,
+    edge: float = 0.02,
+    base_width: float = 0.12,
+    notch: float = 0.06,
+    cup: float = 0.12,
+    curl: float = 0.15,
+) -> Mesh:
+    """A single, bilaterally symmetric petal blade along +y, its base on the x axis.
+
+    The outline is ``x(u) = b cos^2(u/2) + (w/2) sin(u) ((1 - cos u)/2)^0.4``,
+    ``y(u) = L (1 - cos u)/2`` for ``u`` in ``[0, pi]`` (obovate: narrow claw of half-width
+    ``b``, broad blade), mirrored, with a tip notch of depth ``notch * L``. In 3D the blade is
+    cupped across (``z += cup (x/(w/2))^2 w/2``) and curled along (``z += curl (y/L)^2 L``).
+    """
+    _check(edge, length=length, width=width)
+    u = np.linspace(0.0, np.pi, 400)
+    t = (1.0 - np.cos(u)) / 2.0
+    b = base_width * width / 2.0
+    x = b * np.cos(u / 2) ** 2 + width / 2.0 * np.sin(u) * t**0.4
+    y = length * t - notch * length * np.exp(-((x / (0.18 * width)) ** 2)) * t**8
+    right = np.stack([x, y], 1)
+    left = right[::-1][1:] * [-1.0, 1.0]
+    loop = np.vstack([right, left])
+    pts, tri, boundary = triangulate([loop], lambda p: np.full(len(p), edge))
+    px, py = pts[:, 0], pts[:, 1]
+    z = cup * (px / (width / 2)) ** 2 * width / 2 + curl * (py / length) ** 2 * length
+    base = boundary & (py <= 1e-9 + 1e-6 * length)
+    fields = {
+        "s": py / length,
+        "lateral": px / (width / 2),
+        "margin": (boundary & ~base).astype(float),
+        "base": base.astype(float),
+        "midline": _near(px, 0.0, 0.5 * edge),
+    }
+    return Mesh(np.stack([px, py, z], 1), tri, fields=fields, name="petal")
+
+
+def _lobes(theta: np.ndarray, n: int, notch: float, teeth: int, fringe: float,
+           scales: Sequence[float] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-angle lobe profile in [0, 1], lobe index and position across the lobe (-1..1)."""
+    sector = 2.0 * np.pi / n
+    index = np.floor((theta + sector / 2) / sector).astype(int) % n
+    phi = (theta - index * sector + np.pi) % (2 * np.pi) - np.pi
+    across = phi / (sector / 2)
+    shape = np.cos(np.clip(across, -1, 1) * np.pi / 2) ** 0.5
+    shape = shape - notch * np.exp(-((across / 0.2) ** 2))
+    if teeth and fringe:
+        shape = shape * (1.0 - fringe * np.abs(np.sin(across * teeth * np.pi / 2)))
+    if scales is not None:
+        if len(scales) != n:
+            raise MorphogenError(f"need {n} lobe scales, got {len(scales)}")
+        shape = shape * np.asarray(scales, np.float64)[index]
+    return shape, index, across
+
+
+def corolla(
+    petals: int = 5,
+    radius: float = 1.0,
+    *,
+    edge: float = 0.02,
+    depth: float = 0.45,
+    eye: float = 0.0,
+    notch: float = 0.12,
+    teeth: int = 0,
+    fringe: float = 0.0,
+    cup: float = 0.15,
+) -> Mesh:
+    """A radially symmetric corolla of ``petals`` fused petals (Primula, Dianthus), in the xy
+    plane facing +z.
+
+    Outline ``r(theta) = R (1 - depth + depth * lobe(theta))`` with rounded lobes, a notch of
+    ``notch`` at each tip (Primula), optional ``teeth`` per petal cut ``fringe`` deep
+    (Dianthus). ``eye > 0`` leaves a central hole of that fraction of ``R`` (the throat). The
+    corolla is a shallow bowl, ``z = cup R (r/R)^2``.
+    """
+    _check(edge, radius=radius)
+    if not (isinstance(petals, int | np.integer) and 2 <= petals <= 40):
+        raise MorphogenError(f"petals must be an integer from 2 to 40, got {petals}")
+    if not 0 <= eye < 1 - depth:
+        raise MorphogenError(f"eye must be in [0, {1 - depth:g}) (inside the petal bases)")
+    theta = np.linspace(0, 2 * np.pi, 4000, endpoint=False)
+    shape, _, _ = _lobes(theta, petals, notch, teeth, fringe, None)
+    r_out = radius * (1 - depth + depth * shape)
+    loops = [np.stack([r_out * np.cos(theta), r_out * np.sin(theta)], 1)]
+    holes = []
+    if eye > 0:
+        ring = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+        loops.append(eye * radius * np.stack([np.cos(ring), np.sin(ring)], 1))
+        holes.append([0.0, 0.0])
+    pts, tri, boundary = triangulate(loops, lambda p: np.full(len(p), edge), holes=holes)
+    r = np.linalg.norm(pts, axis=1)
+    th = np.arctan2(pts[:, 1], pts[:, 0]) % (2 * np.pi)
+    _, index, across = _lobes(th, petals, notch, teeth, fringe, None)
+    z = cup * radius * (r / radius) ** 2
+    inner = boundary & (r < radius * (eye + 1e-3)) if eye > 0 else r <= max(0.12, 2 * edge)
+    fields = {
+        "r": r / radius,
+        "theta": th,
+        "petal": index.astype(float),
+        "phi": across,
+        "margin": (boundary & ~inner).astype(float),
+        "throat": inner.astype(float),
+        "midline": ((np.abs(across) * np.pi / petals * r <= 0.5 * edge)
+                    & (r > radius * max(eye, 0.05))).astype(float),
+    }
+    return Mesh(np.stack([pts[:, 0], pts[:, 1], z], 1), tri, fields=fields,
+                name=f"corolla-{petals}")
+
+
+def _profile(length, radius, mouth, flare, bend, lobe_length):
+    """Profile of the surface of revolution: arc length ``s`` -> (rho, z), tube then limb."""
+    s = np.linspace(0.0, length + bend + lobe_length, 4000)
+    cone = np.arctan2(mouth - radius, length)
+    # direction angle from the axis: the cone angle along the tube, then turning outwards
+    turn = np.clip((s - length) / bend, 0.0, 1.0)
+    angle = cone + (np.radians(flare) - cone) * (3 * turn**2 - 2 * turn**3)
+    ds = np.diff(s, prepend=0.0)
+    rho = radius + np.cumsum(np.sin(angle) * ds)
+    z = np.cumsum(np.cos(angle) * ds)
+    return s, rho, z
+
+
+def tube(
+    lobes: int = 5,
+    length: float = 1.0,
+    radius: float = 0.22,
+    *,
+    mouth: float | None = None,
+    lobe_length: float = 0.45,
+    lobe_scales: Sequence[float] | None = None,
+    edge: float = 0.02,
+    flare: float = 75.0,
+    bend: float = 0.25,
+    notch: float = 0.05,
+) -> Mesh:
+    """A corolla tube along +z with a flaring limb of ``lobes`` lobes (Digitalis,
+    Arctostaphylos, Mimulus-like); ``lobe_scales`` makes it bilateral (e.g. two small upper
+    and three large lower lobes).
+
+    The surface of revolution (radius ``radius`` at the base to ``mouth`` at the throat over
+    ``length``, then turning outwards by ``flare`` degrees over ``bend``) is meshed through its
+    conformal plane: the annulus ``r = exp(int ds / rho(s))``, ``theta``, meshed with planar
+    edge ``edge * r / rho``, maps to the surface with equal stretch in both directions, so the
+    near-equilateral planar triangles stay near-equilateral on the surface.
+    """
+    _check(edge, length=length, radius=radius, lobe_length=lobe_length, bend=bend)
+    if not (isinstance(lobes, int | np.integer) and 2 <= lobes <= 40):
+        raise MorphogenError(f"lobes must be an integer from 2 to 40, got {lobes}")
+    if not 0 < flare <= 120:
+        raise MorphogenError(f"flare must be in (0, 120] degrees, got {flare}")
+    mouth = radius * 1.3 if mouth is None else mouth
+    _check(edge, mouth=mouth)
+    s, rho, z = _profile(length, radius, mouth, flare, bend, lobe_length)
+    log_r = np.concatenate([[0.0], np.cumsum(np.diff(s) / (0.5 * (rho[1:] + rho[:-1])))])
+    theta = np.linspace(0, 2 * np.pi, 4000, endpoint=False)
+    shape, _, _ = _lobes(theta, lobes, notch, 0, 0.0, lobe_scales)
+    s_max = length + 0.25 * bend + (bend * 0.75 + lobe_length) * np.clip(shape, 0, None)
+    if s_max.max() > s[-1]:
+        s_max = np.minimum(s_max, s[-1])
+    r_out = np.exp(np.interp(s_max, s, log_r))
+    ring = np.linspace(0, 2 * np.pi, max(int(2 * np.pi * radius / edge), 12), endpoint=False)
+    loops = [np.stack([r_out * np.cos(theta), r_out * np.sin(theta)], 1),
+             np.stack([np.cos(ring), np.sin(ring)], 1)]
+
+    def size(p):
+        r = np.linalg.norm(p, axis=1)
+        return edge * r / np.interp(np.log(np.maximum(r, 1e-12)), log_r, rho)
+
+    pts, tri, boundary = triangulate(loops, size, holes=[[0.0, 0.0]])
+    r = np.linalg.norm(pts, axis=1)
+    arc = np.interp(np.log(r), log_r, s)
+    th = np.arctan2(pts[:, 1], pts[:, 0]) % (2 * np.pi)
+    radial = np.interp(arc, s, rho)
+    xyz = np.stack([radial * np.cos(th), radial * np.sin(th), np.interp(arc, s, z)], 1)
+    _, index, across = _lobes(th, lobes, notch, 0, 0.0, lobe_scales)
+    base = boundary & (r < 1.0 + 1e-6)
+    fields = {
+        "s": arc / length,
+        "theta": th,
+        "side": np.sin(th),
+        "lobe": index.astype(float),
+        "margin": (boundary & ~base).astype(float),
+        "base": base.astype(float),
+        "throat": _near(arc, length, 0.6 * edge),
+        "tube": (arc <= length).astype(float),
+        "midline": (np.abs(across) * np.pi / lobes * radial <= 0.5 * edge).astype(float),
+    }
+    return Mesh(xyz, tri, fields=fields, name=f"tube-{lobes}")
