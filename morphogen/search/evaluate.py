@@ -245,8 +245,7 @@ class Evaluator:
         if p.fitness == "target":
             target = fit.load_target(p.target, p.size)
             return jax.jit(fit.target_fitness(target, self.display, flat_tol=p.flat_tol))
-        flat = jax.vmap(lambda u: jnp.asarray(fit.FLAT, jnp.float32))
-        return jax.jit(flat)
+        return jax.jit(lambda u: jnp.full(u.shape[:1], fit.FLAT, jnp.float32))
 
 
 @lru_cache(maxsize=64)

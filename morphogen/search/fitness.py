@@ -98,7 +98,9 @@ def staged(score: Callable[[Array], Array], flat_tol: float = 1e-3) -> Callable[
     """Wrap a per-state score in the three stages of Yamamoto et al. §3.3.
 
     Returns ``f(states (P, S, *spatial)) -> (P,)``: :data:`INVALID` for invalid states,
-    :data:`FLAT` for uniform ones, ``score(u)`` (expected in ``(0, 1]``) otherwise.
+    :data:`FLAT` for uniform ones, ``score(u)`` (expected in ``(0, 1]``) otherwise. States are
+    scored by ``lax.map``, one compiled program for every state, so a score is bit-for-bit the
+    same whatever the population size or however a population is split into batches.
     """
 
     def one(u: Array) -> Array:
@@ -107,7 +109,7 @@ def staged(score: Callable[[Array], Array], flat_tol: float = 1e-3) -> Callable[
         value = jnp.where(is_flat(safe, flat_tol), FLAT, score(safe))
         return jnp.where(valid, value, INVALID)
 
-    return jax.vmap(one)
+    return lambda states: jax.lax.map(one, states)
 
 
 def dirichlet_fitness(periodic: bool = True, flat_tol: float = 1e-3) -> Callable[[Array], Array]:

@@ -68,7 +68,8 @@ class GeneticAlgorithm(Strategy):
 
     def _init(self, key: Array, low: Array, high: Array, sigma: Array) -> GAState:
         u = jax.random.uniform(key, (self.population_size, low.shape[0]), low.dtype)
-        return GAState(low + u * (high - low), jnp.full((self.population_size,), jnp.nan))
+        nan = jnp.full((self.population_size,), jnp.nan, jnp.float32)
+        return GAState(low + u * (high - low), nan)
 
     def _ask(self, key: Array, state: State) -> tuple[Array, GAState]:
         inner = state.inner

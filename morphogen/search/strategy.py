@@ -30,14 +30,14 @@ All of them are pure JAX, so a whole loop can run under ``jit`` or ``lax.scan``:
         state, metrics = strategy.tell(genomes, fitness, state)
 
 Strategies are frozen dataclasses: their hyper-parameters cannot change after construction, so
-the jitted functions each instance caches can never go stale.
+the jitted functions cached for them (shared by equal strategies) can never go stale.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import cached_property
+from functools import lru_cache
 from typing import Any, NamedTuple
 
 import jax
@@ -173,17 +173,24 @@ class Strategy:
         }
         return state, metrics
 
-    @cached_property
+    @property
     def _jit_init(self) -> Callable:
-        return jax.jit(self._init_state)
+        return _compiled(self)[0]
 
-    @cached_property
+    @property
     def _jit_ask(self) -> Callable:
-        return jax.jit(self._ask_state)
+        return _compiled(self)[1]
 
-    @cached_property
+    @property
     def _jit_tell(self) -> Callable:
-        return jax.jit(self._tell_state)
+        return _compiled(self)[2]
+
+
+@lru_cache(maxsize=64)
+def _compiled(strategy: Strategy) -> tuple[Callable, Callable, Callable]:
+    """Jitted ``init/ask/tell`` shared by equal strategies (frozen, so compared by value)."""
+    return (jax.jit(strategy._init_state), jax.jit(strategy._ask_state),
+            jax.jit(strategy._tell_state))
 
 
 def clean_fitness(fitness: Array) -> Array:
