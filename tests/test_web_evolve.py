@@ -1,0 +1,112 @@
+"""Evolve and Runs pages' API: every library model evolves by favourites into the shared archive."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+from fastapi.testclient import TestClient
+
+from morphogen.models.library import LIBRARY
+from morphogen.search.archive import Archive
+from morphogen.search.fitness import HUMAN_LAMBDA
+from morphogen.web.app import create_app
+
+
+@pytest.fixture(scope="module")
+def setup(tmp_path_factory):
+    archive = tmp_path_factory.mktemp("archive") / "index.sqlite"
+    with TestClient(create_app(archive=archive, allowed_hosts=["testserver"])) as c:
+        yield c, archive
+
+
+def wait(client, run, states, timeout=120.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        status = client.get(f"/api/evolve/{run}").json()
+        if status["state"] in states or status["state"] == "error":
+            return status
+        time.sleep(0.05)
+    raise AssertionError(f"run {run} never reached {states}: {status}")
+
+
+@pytest.mark.parametrize("name", sorted(LIBRARY))
+def test_every_library_model_evolves_by_favourites(setup, name):
+    client, archive = setup
+    defaults = client.get(f"/api/evolve/setup/{name}").json()
+    assert defaults["genes"], name
+    r = client.post("/api/evolve", json={
+        "model": {"library": name}, "population": 2, "generations": 1, "size": 16,
+        "steps": 20, "fitness": "user",
+    })
+    assert r.status_code == 200, r.text
+    run = r.json()["run"]
+    status = wait(client, run, ("choose",))
+    assert status["state"] == "choose", status
+    assert len(status["images"]) == 2
+    assert client.get(status["images"][1]).headers["content-type"] == "image/png"
+    assert client.post(f"/api/evolve/{run}/select", json={"indices": [5]}).status_code == 400
+    client.post(f"/api/evolve/{run}/select", json={"indices": [1]}).raise_for_status()
+    status = wait(client, run, ("done",))
+    assert status["state"] == "done", status
+    # Skaggs eq. 3.9: the chosen share lambda of the fitness, the others 1 - lambda
+    rows = Archive(archive, create=False).individuals(run, 1)
+    fitness = [row["fitness"] for row in rows]
+    lam = HUMAN_LAMBDA
+    assert fitness == pytest.approx([1 - lam, lam], rel=1e-6)
+    listed = {r["id"]: r for r in client.get("/api/runs").json()["runs"]}
+    assert listed[run]["status"] == "done" and listed[run]["model"] == name
+
+
+def test_two_generations_breed_from_the_favourites_and_runs_page_browses_them(setup, tmp_path):
+    client, _ = setup
+    r = client.post("/api/evolve", json={"model": {"library": "gray-scott"}, "population": 4,
+                                         "generations": 2, "size": 16, "steps": 30})
+    run = r.json()["run"]
+    assert wait(client, run, ("choose",))["gen"] == 1
+    client.post(f"/api/evolve/{run}/select", json={"indices": [1, 3]}).raise_for_status()
+    status = wait(client, run, ("choose",))
+    assert status["gen"] == 2
+    client.post(f"/api/evolve/{run}/select", json={"indices": [0]}).raise_for_status()
+    assert wait(client, run, ("done",))["state"] == "done"
+    detail = client.get(f"/api/runs/{run}").json()
+    assert [g["gen"] for g in detail["history"]] == [1, 2]
+    assert client.get(detail["history"][1]["sheet"]).content[:4] == b"\x89PNG"
+    assert client.get(detail["fitness_plot"]).status_code == 200
+    best = detail["best"][0]
+    assert best["fitness"] == pytest.approx(HUMAN_LAMBDA)  # the single favourite of gen 2
+    assert set(best["params"]) == {"F", "k"}
+    assert detail["explore"]["model"] == {"library": "gray-scott"}
+    gen2 = client.get(f"/api/runs/{run}/generations/2").json()["individuals"]
+    assert len(gen2) == 4
+    # an individual opens in Explore with its parameters, and its run file runs in the CLI
+    live = client.post("/api/live", json={**detail["explore"], "params": best["params"]})
+    assert live.status_code == 200, live.text
+    path = tmp_path / "ind.json"
+    path.write_bytes(client.get(best["config"]).content)
+    from morphogen.cli.main import main as cli
+
+    assert cli(["simulate", "--config", str(path), "--out", str(tmp_path / "o")]) == 0
+    # files outside the run directory are never served
+    for rel in ("../index.sqlite", "../../etc/passwd", "config.txt"):
+        assert client.get(f"/api/runs/{run}/files/{rel}").status_code in (400, 404)
+
+
+def test_automatic_fitness_reports_progress_and_stop_works(setup):
+    client, _ = setup
+    r = client.post("/api/evolve", json={"model": {"library": "gray-scott"}, "population": 3,
+                                         "generations": 50, "size": 16, "steps": 500,
+                                         "fitness": "dirichlet"})
+    run = r.json()["run"]
+    seen = set()
+    end = time.monotonic() + 60
+    while time.monotonic() < end:
+        s = client.get(f"/api/evolve/{run}").json()
+        seen.add(s["gen"])
+        if s["gen"] >= 2:
+            break
+        time.sleep(0.05)
+    client.post(f"/api/evolve/{run}/stop").raise_for_status()
+    s = wait(client, run, ("stopped", "done"))
+    assert s["state"] == "stopped" and {1, 2} <= seen
+    assert client.get("/api/evolve/unknown").status_code == 400
