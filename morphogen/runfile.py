@@ -65,6 +65,7 @@ class RunConfig:
     fps: float = 12.0
     animation: str = "gif"
     unsafe: bool = False
+    precision: str = "float32"
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> RunConfig:
@@ -129,6 +130,7 @@ def build_domain(config: RunConfig, model: Model) -> Any:
 
 def prepare(config: RunConfig) -> Prepared:
     """Validate and resolve everything before any output is written."""
+    set_precision(config.precision)
     model = load_config_model(config)
     domain = build_domain(config, model)
     values = model.parameters(config.params, preset=config.preset)
@@ -148,6 +150,15 @@ def prepare(config: RunConfig) -> Prepared:
     u0 = make_initial(config.init or model.init, model, domain, values, seed=config.seed,
                       **config.init_options)
     return Prepared(config, model, domain, params, u0, dt, steps)
+
+
+def set_precision(precision: str) -> None:
+    """``float32`` (the default) or ``float64`` (JAX's x64 mode) for the whole process."""
+    import jax
+
+    if precision not in ("float32", "float64"):
+        raise MorphogenError(f"precision must be float32 or float64, not {precision!r}")
+    jax.config.update("jax_enable_x64", precision == "float64")
 
 
 def _default_dt(model: Model, domain: Any, params: dict, config: RunConfig) -> float:

@@ -164,3 +164,11 @@ def test_blow_up_is_reported_with_step(tmp_path):
     assert result.returncode == 2
     assert "blow-up at step" in result.stderr
     assert not (tmp_path / "o" / "state.npz").exists()
+
+
+def test_float64_on_request(tmp_path):
+    result = run_cli("simulate", "gray-scott", "--size", "16x16", "--steps", "5", "--x64",
+                     "--out", str(tmp_path / "o"))
+    assert result.returncode == 0, result.stderr
+    assert np.load(tmp_path / "o" / "state.npz")["v"].dtype == np.float64
+    assert json.loads((tmp_path / "o" / "run.json").read_text())["config"]["precision"] == "float64"

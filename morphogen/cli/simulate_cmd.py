@@ -51,6 +51,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--threshold", type=float, help="two-colour map split at this value")
     p.add_argument("--animation", choices=("gif", "mp4"), default=None, help="animation format")
     p.add_argument("--unsafe", action="store_true", help="skip the stability check on dt")
+    p.add_argument("--x64", action="store_true", help="compute in float64 (default float32)")
     p.add_argument("--out", default=None, help="output directory (default out/MODEL)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -102,6 +103,8 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
         config.clamp = options.clamp(args.clamp)
     if args.unsafe:
         config.unsafe = True
+    if args.x64:
+        config.precision = "float64"
     return config
 
 
