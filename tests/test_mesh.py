@@ -202,3 +202,25 @@ def test_grad_through_mesh_simulation_matches_finite_differences(sphere):
     fd = (float(loss(0.5 + h)) - float(loss(0.5 - h))) / (2 * h)
     assert g == pytest.approx(fd, rel=1e-2)
     assert g < 0  # faster diffusion decays the mode faster
+
+
+def test_padded_table_with_tail_matches_sparse_product(monkeypatch):
+    import scipy.sparse as sp
+
+    from morphogen.domains import mesh_operators
+
+    monkeypatch.setattr(mesh_operators, "MAX_WIDTH", 3)
+    rng = np.random.default_rng(5)
+    n = 50
+    a = sp.random(n, n, density=0.15, random_state=6, format="coo")
+    table = mesh_operators.Table.from_coo(a.row, a.col, a.data, n)
+    assert len(table.tail_rows) > 0 and table.index.shape[0] <= 3
+    x = rng.random((2, n)).astype(np.float32)
+    assert np.allclose(table.apply(jnp.asarray(x)), (a @ x.T).T, atol=1e-5)
+    d = rng.random(n).astype(np.float32)
+    sym = (a + a.T).tocoo()
+    table = mesh_operators.Table.from_coo(sym.row, sym.col, sym.data, n)
+    dense = sym.toarray() * 0.5 * (d[:, None] + d[None, :])
+    expected = dense @ x[0] - dense.sum(axis=1) * x[0]
+    got = table.apply_differences(jnp.asarray(x[0]), jnp.asarray(d))
+    assert np.allclose(got, expected, atol=1e-4)

@@ -89,7 +89,11 @@ def _lobes(theta: np.ndarray, n: int, notch: float, teeth: int, fringe: float,
     index = np.floor((theta + sector / 2) / sector).astype(int) % n
     phi = (theta - index * sector + np.pi) % (2 * np.pi) - np.pi
     across = phi / (sector / 2)
-    shape = np.cos(np.clip(across, -1, 1) * np.pi / 2) ** 0.5
+    # ~sqrt(cos) rounds the lobe; the eps blend turns the cusp it would leave at the sinus
+    # between lobes into a corner of finite angle (no sliver triangles there)
+    eps = 0.15
+    base = np.cos(np.clip(across, -1, 1) * np.pi / 2)
+    shape = (np.sqrt(base + eps**2) - eps) / (np.sqrt(1 + eps**2) - eps)
     shape = shape - notch * np.exp(-((across / 0.2) ** 2))
     if teeth and fringe:
         shape = shape * (1.0 - fringe * np.abs(np.sin(across * teeth * np.pi / 2)))
