@@ -41,6 +41,8 @@ export class Explore {
     this.fps = 0;
     this.fpsWindow = [];
     this.pending = {}; // parameter changes not yet sent
+    this.pendingExtra = {}; // dt not yet sent
+    this.sending = false;
     this.paintQueue = [];
     this.visible = true;
     // what the end-to-end tests read
@@ -177,18 +179,29 @@ export class Explore {
     if (!this.paramTimer) this.paramTimer = setTimeout(() => this.sendParams(), 40);
   }
 
+  // one request at a time, so the server ends with the last value the slider showed
   async sendParams(extra = {}) {
     this.paramTimer = null;
+    this.pendingExtra = { ...this.pendingExtra, ...extra };
+    if (this.sending) {
+      this.paramTimer = setTimeout(() => this.sendParams(), 20);
+      return;
+    }
     const params = this.pending;
+    const more = this.pendingExtra;
     this.pending = {};
+    this.pendingExtra = {};
+    this.sending = true;
     try {
-      const res = await api(`/api/live/${this.sid}/params`, { method: 'POST', body: { params, ...extra } });
+      const res = await api(`/api/live/${this.sid}/params`, { method: 'POST', body: { params, ...more } });
       this.state = { ...this.state, ...res };
       this.setDt(res.dt, res.dt_max);
       showError(this.$('ex-notice'), res.notices.join('\n'));
       this.updateLinks();
     } catch (err) {
       this.fail(err);
+    } finally {
+      this.sending = false;
     }
   }
 

@@ -1,0 +1,257 @@
+// Drive the web app in headless Chromium for tests/e2e/test_browser.py.
+// usage: node browser.mjs SCENARIO BASE_URL OUT_DIR
+// Writes OUT_DIR/SCENARIO.json (observations the Python test checks) and screenshots; exits 1
+// with the error message (and a screenshot SCENARIO-failed.png) when a step fails.
+
+import { writeFileSync } from 'node:fs';
+import { join } from 'node:path';
+import { chromium } from 'playwright-core';
+
+const [scenario, base, out] = process.argv.slice(2);
+const ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
+  '--disable-component-update', '--disable-sync', '--no-first-run', '--disable-quic',
+  '--disable-extensions', '--metrics-recording-only', '--disable-breakpad'];
+
+// a cheap fingerprint of the canvas: the RGBA bytes summed in 64 bands
+const canvasPrint = (page) => page.evaluate(() => {
+  const c = document.getElementById('ex-canvas');
+  const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+  const bands = new Array(64).fill(0);
+  for (let i = 0; i < d.length; i += 1) bands[Math.floor((i / d.length) * 64)] += d[i];
+  return bands;
+});
+
+const pixelAt = (page, fx, fy) => page.evaluate(([x, y]) => {
+  const c = document.getElementById('ex-canvas');
+  const d = c.getContext('2d').getImageData(Math.floor(x * c.width), Math.floor(y * c.height), 1, 1).data;
+  return [d[0], d[1], d[2]];
+}, [fx, fy]);
+
+const framesNow = (page) => page.evaluate(() => window.morphogenExplore.frames);
+
+async function waitFrames(page, n, timeout = 30000) {
+  const start = await framesNow(page);
+  await page.waitForFunction((s) => window.morphogenExplore.frames >= s, start + n, { timeout });
+}
+
+async function pause(page) {
+  if (await page.evaluate(() => window.morphogenExplore.running)) await page.click('#ex-run');
+  await page.waitForFunction(() => !window.morphogenExplore.inflight);
+}
+
+// one frame while paused (the Step button), waiting until it is drawn
+async function step(page, times = 1) {
+  for (let i = 0; i < times; i += 1) {
+    const f = await framesNow(page);
+    await page.click('#ex-step');
+    await page.waitForFunction((s) => window.morphogenExplore.frames > s && !window.morphogenExplore.inflight, f);
+  }
+}
+
+// reset from the controls and wait for the (single) frame shown after it
+async function reset(page, init) {
+  await page.selectOption('#ex-init', init);
+  const f = await framesNow(page);
+  await page.click('#ex-reset');
+  await page.waitForFunction((s) => window.morphogenExplore.frames > s && !window.morphogenExplore.inflight, f);
+}
+
+async function openExplore(page) {
+  await page.goto(`${base}#explore`);
+  await page.waitForFunction(() => window.morphogenExplore && window.morphogenExplore.frames >= 2, null, { timeout: 60000 });
+}
+
+// drag the range input `selector` to fraction `frac` of its width with the mouse
+async function dragSlider(page, selector, frac) {
+  const box = await page.locator(selector).boundingBox();
+  const y = box.y + box.height / 2;
+  await page.mouse.move(box.x + box.width * 0.5, y);
+  await page.mouse.down();
+  await page.mouse.move(box.x + box.width * frac, y, { steps: 8 });
+  await page.mouse.up();
+}
+
+const diff = (a, b) => a.reduce((s, v, i) => s + Math.abs(v - b[i]), 0);
+
+const SCENARIOS = {
+  async explore(page) {
+    await openExplore(page);
+    const first = await canvasPrint(page);
+    await page.waitForTimeout(1000);
+    // frames per second over three seconds, counted in the page
+    const f0 = await framesNow(page);
+    const t0 = Date.now();
+    await page.waitForTimeout(3000);
+    const fps = ((await framesNow(page)) - f0) / ((Date.now() - t0) / 1000);
+    const second = await canvasPrint(page);
+    await page.screenshot({ path: join(out, 'explore.png') });
+    const state = await page.evaluate(() => window.morphogenExplore.state);
+    return { fps, change: diff(first, second), size: state.size, model: state.model,
+      steps_per_frame: state.steps_per_frame, server_ms: await page.evaluate(() => window.morphogenExplore.last.ms) };
+  },
+
+  async slider(page) {
+    await openExplore(page);
+    await pause(page);
+    await reset(page, 'square');
+    await step(page, 12);
+    const a1 = await canvasPrint(page);
+    await reset(page, 'square');
+    await step(page, 12);
+    const a2 = await canvasPrint(page); // same start, same steps: the same picture
+    const before = await page.evaluate(() => window.morphogenExplore.state.params.F);
+    await dragSlider(page, 'input[data-param="F"]', 0.9);
+    // wait until the server has the value the slider shows (the last of the drag)
+    await page.waitForFunction(() => {
+      const x = window.morphogenExplore;
+      const shown = Number(document.querySelector('input[data-param="F"]').value);
+      return !x.paramTimer && Math.abs(x.state.params.F - shown) < 1e-9;
+    });
+    const after = await page.evaluate(() => window.morphogenExplore.state.params.F);
+    await reset(page, 'square');
+    await step(page, 12);
+    const b = await canvasPrint(page);
+    await page.screenshot({ path: join(out, 'slider.png') });
+    return { repeat: diff(a1, a2), change: diff(a1, b), before, after,
+      shown: await page.inputValue('input[data-param="F"] + input') };
+  },
+
+  async paint(page) {
+    await openExplore(page);
+    await pause(page);
+    await reset(page, 'uniform');
+    const flat = [await pixelAt(page, 0.25, 0.25), await pixelAt(page, 0.75, 0.75)];
+    const box = await page.locator('#ex-canvas').boundingBox();
+    // a click at the upper left quarter, then a drag along the lower right
+    await page.mouse.click(box.x + box.width * 0.25, box.y + box.height * 0.25);
+    await page.mouse.move(box.x + box.width * 0.6, box.y + box.height * 0.75);
+    await page.mouse.down();
+    await page.mouse.move(box.x + box.width * 0.9, box.y + box.height * 0.75, { steps: 10 });
+    await page.mouse.up();
+    await page.waitForTimeout(500);
+    await step(page, 2);
+    const painted = [await pixelAt(page, 0.25, 0.25), await pixelAt(page, 0.75, 0.75)];
+    const untouched = await pixelAt(page, 0.75, 0.25);
+    await page.click('#ex-run');
+    await waitFrames(page, 20);
+    await page.screenshot({ path: join(out, 'paint.png') });
+    return { flat, painted, untouched };
+  },
+
+  async download(page) {
+    await openExplore(page);
+    await waitFrames(page, 5);
+    const [run] = await Promise.all([page.waitForEvent('download'), page.click('#ex-save-run')]);
+    await run.saveAs(join(out, 'run.json'));
+    const [png] = await Promise.all([page.waitForEvent('download'), page.click('#ex-save-png')]);
+    await png.saveAs(join(out, 'explore-saved.png'));
+    return { run: run.suggestedFilename(), png: png.suggestedFilename() };
+  },
+
+  async atlas(page) {
+    await page.goto(`${base}#atlas`);
+    await page.waitForFunction(() => document.querySelectorAll('#at-x option').length > 0);
+    await page.fill('#at-x-n', '6');
+    await page.fill('#at-y-n', '6');
+    await page.selectOption('#at-tile', '32');
+    await page.fill('#at-steps', '3000');
+    await page.click('#at-go');
+    await page.waitForSelector('#at-result:not([hidden])', { timeout: 120000 });
+    await page.waitForTimeout(300);
+    await page.screenshot({ path: join(out, 'atlas.png') });
+    // click the tile in the top row, second column: x = second k, y = largest F
+    const res = await page.evaluate(() => window.morphogenAtlas.result);
+    const box = await page.locator('#at-image').boundingBox();
+    const cell = (res.tile + res.pad) / (res.x.n * (res.tile + res.pad) + res.pad);
+    await page.mouse.click(box.x + box.width * (1.5 * cell), box.y + box.height * (0.5 * cell));
+    await page.waitForFunction(() => !document.getElementById('page-explore').hidden);
+    await page.waitForFunction((f) => window.morphogenExplore?.state?.params?.F === f
+      && window.morphogenExplore.frames >= 3, res.y.values[res.y.n - 1], { timeout: 60000 });
+    await page.waitForTimeout(1500);
+    await page.screenshot({ path: join(out, 'atlas-to-explore.png') });
+    const params = await page.evaluate(() => window.morphogenExplore.state.params);
+    return { x: res.x, y: res.y, valid: res.valid, params };
+  },
+
+  async evolve(page) {
+    await page.goto(`${base}#evolve`);
+    await page.waitForFunction(() => Number(document.getElementById('ev-population')?.value) > 0);
+    await page.fill('#ev-population', '6');
+    await page.fill('#ev-size', '48');
+    await page.fill('#ev-steps', '2000');
+    await page.fill('#ev-generations', '3');
+    await page.click('#ev-start');
+    await page.waitForSelector('#ev-grid .tile', { timeout: 120000 });
+    await page.click('#ev-grid .tile[data-idx="1"]');
+    await page.click('#ev-grid .tile[data-idx="4"]');
+    const picked = await page.locator('#ev-grid .tile.picked').count();
+    await page.screenshot({ path: join(out, 'evolve-choose.png') });
+    const run = await page.evaluate(() => window.morphogenEvolve.status.run);
+    await page.click('#ev-next');
+    await page.waitForFunction(() => window.morphogenEvolve.status.gen === 2
+      && window.morphogenEvolve.status.state === 'choose', null, { timeout: 120000 });
+    await page.waitForTimeout(500);
+    await page.screenshot({ path: join(out, 'evolve-next.png') });
+    const runs = await page.evaluate(() => fetch('/api/runs').then((r) => r.json()));
+    const gen1 = await page.evaluate((id) => fetch(`/api/runs/${id}/generations/1`).then((r) => r.json()), run);
+    await page.click('#ev-stop');
+    await page.goto(`${base}#runs`);
+    await page.click(`tr[data-run="${run}"]`);
+    await page.waitForSelector('#runs-sheet img');
+    await page.waitForTimeout(800);
+    await page.screenshot({ path: join(out, 'runs.png'), fullPage: true });
+    return { run, picked, runs: runs.runs, gen1: gen1.individuals.map((i) => i.fitness) };
+  },
+
+  async tabs(page, context) {
+    await openExplore(page);
+    const other = await context.newPage();
+    await openExplore(other);
+    const ids = [await page.evaluate(() => window.morphogenExplore.sid),
+      await other.evaluate(() => window.morphogenExplore.sid)];
+    await dragSlider(page, 'input[data-param="k"]', 0.1);
+    await page.waitForTimeout(500);
+    const k = [await page.evaluate(() => window.morphogenExplore.state.params.k),
+      await other.evaluate(() => fetch(`/api/live/${window.morphogenExplore.sid}`).then((r) => r.json()).then((s) => s.params.k))];
+    return { ids, k };
+  },
+
+  async equations(page) {
+    await openExplore(page);
+    await page.selectOption('#ex-model', '__equations__');
+    await page.fill('#ex-equations', "__import__('os').system('echo pwned')");
+    await page.click('#ex-eq-apply');
+    await page.waitForSelector('#ex-error:not([hidden])');
+    const error = await page.textContent('#ex-error');
+    await page.screenshot({ path: join(out, 'equations-rejected.png') });
+    return { error, model: await page.evaluate(() => window.morphogenExplore.state.model) };
+  },
+};
+
+const browser = await chromium.launch({
+  executablePath: process.env.MORPHOGEN_CHROMIUM || '/usr/bin/chromium',
+  args: ARGS,
+});
+// launch() gives every run a fresh temporary profile
+const context = await browser.newContext({ viewport: { width: 1280, height: 900 }, acceptDownloads: true });
+const page = await context.newPage();
+const problems = [];
+const consoleErrors = [];
+page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
+page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
+page.on('request', (r) => {
+  if (!r.url().startsWith(base) && !r.url().startsWith('data:') && !r.url().startsWith('blob:')
+      && !r.url().startsWith(base.replace('http', 'ws'))) problems.push(`outside request: ${r.url()}`);
+});
+let status = 0;
+try {
+  const result = await SCENARIOS[scenario](page, context);
+  writeFileSync(join(out, `${scenario}.json`), JSON.stringify({ ...result, problems, consoleErrors }, null, 2));
+} catch (err) {
+  console.error(`${scenario}: ${err.message}`);
+  await page.screenshot({ path: join(out, `${scenario}-failed.png`) }).catch(() => {});
+  status = 1;
+} finally {
+  await browser.close();
+}
+process.exit(status);

@@ -1,0 +1,144 @@
+"""End-to-end tests: `morphogen serve` driven by a real headless Chromium.
+
+``ensure_browser.sh`` installs Debian's ``chromium`` and the npm package ``playwright-core``
+when they are missing; the tests skip (with the reason) only if that is impossible.
+``browser.mjs`` performs each scenario and writes what it saw, plus screenshots, into
+``out/e2e/`` (override with ``$MORPHOGEN_E2E_OUT``); the checks are made here.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+HERE = Path(__file__).parent
+ROOT = HERE.parent.parent
+OUT = Path(os.environ.get("MORPHOGEN_E2E_OUT", ROOT / "out" / "e2e"))
+LAMBDA = 0.9  # Skaggs eq. 3.9
+
+
+@pytest.fixture(scope="module")
+def browser_ready():
+    if shutil.which("sh") is None:
+        pytest.skip("no shell to run ensure_browser.sh")
+    r = subprocess.run(["sh", str(HERE / "ensure_browser.sh")], capture_output=True, text=True,
+                       timeout=900)
+    if r.returncode != 0:
+        pytest.skip(f"no browser for the end-to-end tests: {r.stdout.strip() or r.stderr.strip()}")
+    OUT.mkdir(parents=True, exist_ok=True)
+
+
+@pytest.fixture(scope="module")
+def server(browser_ready, tmp_path_factory):
+    """``morphogen serve`` on 127.0.0.1 and a free port, with its own run archive."""
+    archive = tmp_path_factory.mktemp("archive") / "index.sqlite"
+    env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "morphogen.cli.main", "serve", "--port", "0",
+         "--archive", str(archive)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, cwd=ROOT,
+    )
+    try:
+        line = proc.stdout.readline()
+        if "http://127.0.0.1:" not in line:
+            pytest.fail(f"the server did not start: {line}{proc.stdout.read()}")
+        url = line.split()[4]
+        yield url
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+def scenario(server: str, name: str) -> dict:
+    """Run one scenario of browser.mjs; its observations as a dict."""
+    r = subprocess.run(["node", str(HERE / "browser.mjs"), name, server, str(OUT)],
+                       capture_output=True, text=True, timeout=300, cwd=HERE)
+    assert r.returncode == 0, f"{name}: {r.stderr.strip()} (screenshot {OUT}/{name}-failed.png)"
+    data = json.loads((OUT / f"{name}.json").read_text())
+    assert not data["problems"], data["problems"]
+    return data
+
+
+def test_explore_shows_a_live_simulation(server):
+    data = scenario(server, "explore")
+    assert data["model"] == "gray-scott" and data["size"] == 256
+    assert data["change"] > 0, "the picture did not change between frames"
+    assert data["fps"] > 0
+    print(f"\nExplore, 256x256, {data['steps_per_frame']} steps per frame: "
+          f"{data['fps']:.1f} frames/s in the browser, {data['server_ms']:.1f} ms per frame "
+          "on the server")
+    assert (OUT / "explore.png").stat().st_size > 10_000
+
+
+def test_moving_the_feed_slider_changes_the_picture(server):
+    data = scenario(server, "slider")
+    assert data["repeat"] == 0, "the same start and steps must give the same picture"
+    assert data["after"] > data["before"]
+    assert float(data["shown"]) == pytest.approx(data["after"], rel=1e-3)
+    assert data["change"] > 1000, "changing F did not change the picture"
+
+
+def test_painting_a_perturbation(server):
+    data = scenario(server, "paint")
+    flat, painted = data["flat"], data["painted"]
+    assert flat[0] == flat[1], "the uniform start should look uniform"
+    assert painted[0] != flat[0], "the click left no mark"
+    assert painted[1] != flat[1], "the drag left no mark"
+    assert data["untouched"] == flat[0], "paint appeared where nothing was painted"
+
+
+def test_one_evolve_generation_with_two_favourites(server):
+    data = scenario(server, "evolve")
+    assert data["picked"] == 2
+    run = {r["id"]: r for r in data["runs"]}[data["run"]]
+    assert run["fitness"] == "user" and run["done"] >= 1
+    # the two favourites (tiles 1 and 4 of 6) share lambda, the other four 1 - lambda
+    expect = [(1 - LAMBDA) / 4] * 6
+    expect[1] = expect[4] = LAMBDA / 2
+    assert data["gen1"] == pytest.approx(expect, rel=1e-5)
+
+
+def test_downloaded_params_file_runs_with_the_cli(server, tmp_path):
+    data = scenario(server, "download")
+    assert data["run"].endswith(".json") and data["png"].endswith(".png")
+    assert (OUT / "explore-saved.png").read_bytes()[:4] == b"\x89PNG"
+    run_file = OUT / "run.json"
+    config = json.loads(run_file.read_text())["config"]
+    assert config["model"] == "gray-scott" and config["size"] == [256, 256]
+    out = tmp_path / "sim"
+    r = subprocess.run([sys.executable, "-m", "morphogen.cli.main", "simulate", "--config",
+                        str(run_file), "--out", str(out)], capture_output=True, text=True,
+                       timeout=300, env={**os.environ, "JAX_PLATFORMS": "cpu"})
+    assert r.returncode == 0, r.stderr
+    with np.load(out / "state.npz") as state:
+        assert state["v"].shape == (256, 256) and np.isfinite(state["v"]).all()
+    record = json.loads((out / "run.json").read_text())
+    assert record["resolved"]["steps"] == config["steps"]
+
+
+def test_atlas_tile_opens_in_explore(server):
+    data = scenario(server, "atlas")
+    assert np.asarray(data["valid"]).shape == (6, 6)
+    assert data["params"]["F"] == pytest.approx(data["y"]["values"][-1])
+    assert data["params"]["k"] == pytest.approx(data["x"]["values"][1])
+
+
+def test_two_tabs_have_their_own_simulations(server):
+    data = scenario(server, "tabs")
+    assert data["ids"][0] != data["ids"][1]
+    assert data["k"][0] != data["k"][1]
+
+
+def test_unsafe_equation_text_is_refused_in_the_page(server):
+    data = scenario(server, "equations")
+    assert data["error"].strip() and data["model"] == "gray-scott"
