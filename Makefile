@@ -3,7 +3,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench lint clean
+.PHONY: demo test bench lint clean serve
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -19,6 +19,9 @@ lint: $(STAMP)
 
 test: $(STAMP) lint
 	JAX_PLATFORMS=cpu $(BIN)/python -m pytest
+
+serve: $(STAMP)
+	$(BIN)/morphogen serve --port $(or $(PORT),8000)
 
 bench: $(STAMP)
 	$(BIN)/python -m bench.run
