@@ -111,17 +111,19 @@ def run(args: argparse.Namespace) -> int:
         raise MorphogenError("give a model name or file, or --resume RUN")
     if args.executor != "ray" and (args.address or args.batches):
         raise MorphogenError("--address and --batches need --executor ray")
+    ray_options = {"address": args.address, "batches": args.batches}
+    options_for = ray_options if args.executor == "ray" else {}
     if args.resume:
         run_id, archive = resolve_run(args.resume, args.archive)
+        problem = Problem.from_dict(archive.run(run_id)["config"]["problem"])
+        executor = make_executor(args.executor, problem, **options_for)
     else:
         problem = problem_from_args(args)
+        strategy = strategy_from_args(args)
+        executor = make_executor(args.executor, problem, **options_for)  # validates first
         archive = Archive(args.archive)
-        run_id, _ = start(problem, strategy_from_args(args), generations=args.generations,
-                          seed=args.seed, out=args.out, archive=archive, cmap=args.cmap)
-    problem = Problem.from_dict(archive.run(run_id)["config"]["problem"])
-    ray_options = {"address": args.address, "batches": args.batches}
-    executor = make_executor(args.executor, problem,
-                             **(ray_options if args.executor == "ray" else {}))
+        run_id, _ = start(problem, strategy, generations=args.generations, seed=args.seed,
+                          out=args.out, archive=archive, cmap=args.cmap)
     print(f"run {run_id} in {archive.run(run_id)['dir']}", flush=True)
     result = evolve(run_id, archive, executor, select=ask_selection,
                     progress=options.show_progress(args), log=lambda line: print(line, flush=True))
