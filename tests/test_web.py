@@ -320,3 +320,28 @@ def test_front_end_fetches_nothing_from_elsewhere():
 def test_serve_refuses_a_bad_port(capsys):
     assert cli(["serve", "--port", "70000"]) == 2
     assert "--port" in capsys.readouterr().err
+
+
+def test_mesh_job_returns_a_coloured_flower(client):
+    job = client.post("/api/mesh", json={"shape": "petal", "size": 40, "steps": 50}).json()["job"]
+    for _ in range(600):
+        status = client.get(f"/api/jobs/{job}").json()
+        if status["status"] in ("done", "error"):
+            break
+        time.sleep(0.05)
+    assert status["status"] == "done", status
+    res = status["result"]
+    v = np.asarray(res["vertices"]).reshape(-1, 3)
+    faces = np.asarray(res["faces"]).reshape(-1, 3)
+    assert len(v) == res["n_vertices"] and faces.max() < len(v)
+    assert len(res["colours"]) == 3 * len(v)
+    # the unit petal scaled so that it is `size` mesh units long (one unit ~ one grid cell)
+    from morphogen.flowers.shapes import petal
+
+    unit = petal(length=1.0, width=0.7, edge=1.0 / (40 * 0.7))
+    np.testing.assert_allclose(v, np.asarray(unit.vertices) * 40, atol=2e-3)
+    assert client.get(res["image"]).content[:4] == b"\x89PNG"
+    for body, fragment in (({"size": 240, "detail": 1.5}, "size x detail"),
+                           ({"shape": "teapot"}, "shape")):
+        r = client.post("/api/mesh", json=body)
+        assert r.status_code == 400 and fragment in r.json()["error"]

@@ -21,7 +21,15 @@ from fastapi.staticfiles import StaticFiles
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from morphogen.errors import MorphogenError
-from morphogen.web import atlas_routes, evolve_routes, explore, info, jobs, runs_routes
+from morphogen.web import (
+    atlas_routes,
+    evolve_routes,
+    explore,
+    info,
+    jobs,
+    mesh_routes,
+    runs_routes,
+)
 from morphogen.web.evolution import EvolveRuns
 from morphogen.web.jobs import JobGone, JobStore
 from morphogen.web.limits import Limits, WorkTimeout
@@ -47,8 +55,8 @@ def create_app(
 
     Args:
         limits: request bounds (defaults of :class:`Limits`).
-        archive: directory of the run archive shared with ``morphogen evolve`` (the search
-            package's default when ``None``).
+        archive: the run archive's index file (SQLite) shared with ``morphogen evolve``
+            (``$MORPHOGEN_ARCHIVE`` or ``runs/index.sqlite`` when ``None``).
         allowed_hosts: accepted ``Host`` headers (guards a local server against DNS
             rebinding); add the public name when serving beyond 127.0.0.1.
     """
@@ -85,7 +93,7 @@ def create_app(
     async def bad_input(request: Request, exc: MorphogenError):
         return JSONResponse({"error": str(exc)}, status_code=400)
 
-    for module in (info, explore, atlas_routes, jobs, evolve_routes, runs_routes):
+    for module in (info, explore, atlas_routes, jobs, evolve_routes, runs_routes, mesh_routes):
         app.include_router(module.router)
 
     @app.get("/", include_in_schema=False)
