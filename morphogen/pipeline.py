@@ -1,0 +1,297 @@
+"""Multi-stage mesh pipelines (Ringham et al. fig. 4, §3.4.5), described in TOML.
+
+A pipeline names a mesh and a list of stages. Every stage reads the mesh's per-vertex fields
+and adds fields of its own, so an earlier stage's output becomes a later stage's prepattern:
+parameters, initial values, boundary values or the anisotropy direction. ::
+
+    [mesh]
+    shape = "tube"                # petal | corolla | tube (morphogen.flowers), or file = "x.ply"
+    lobes = 5
+    edge = 0.02
+    scale = 4.0                   # optional uniform scale of the generated shape
+
+    [[stage]]                     # positional information: g = 1 on the margin, 0 at the throat
+    kind = "positional"
+    field = "g"
+    sources = "margin"
+    sinks = "throat"
+
+    [[stage]]                     # any field from expressions of fields and x, y, z
+    kind = "fields"
+    fields = { alpha = "lerp(13.5, 16.25, g**10)" }
+
+    [[stage]]                     # random points (density by rejection, §3.4.4)
+    kind = "points"
+    field = "seeds"
+    count = 80
+    density = "g"
+
+    [[stage]]                     # a simulation: any library model or model file
+    kind = "simulate"
+    model = "kohleria.toml"
+    steps = 6000
+    dt = 0.2
+    directions = "g"              # anisotropy frame: the gradient of field g (eq. 18)
+    omega = 1e6                   # optional stochastic diffusion (eq. 17)
+    params = { alpha = "alpha" }  # numbers or expressions of fields
+    initial = { a = "where(seeds > 0, seeds, a)" }  # per species; may read the species' values
+                                  # from init and same-named fields
+    boundary = { u = "dirichlet=0@margin" }
+
+In a simulation stage, fields named like a species are its initial values and fields named like
+a parameter its values per vertex (as in PLY files); the final state's species become fields
+(renamed with ``outputs = { v = "v1" }``). Each stage writes ``DIR/NN-NAME/`` (``out.ply``,
+``out.png``, ``fields.npz``, ``stage.json``); ``DIR/final.ply`` holds every field and
+``DIR/pipeline.json`` a record. With ``resume``, stages whose ``stage.json`` matches and whose
+``fields.npz`` exists are not recomputed.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from morphogen.domains.mesh import Mesh
+from morphogen.errors import MorphogenError
+from morphogen.io import ensure_writable_dir, write_json, write_npz
+
+KINDS = ("positional", "fields", "points", "simulate")
+_KEYS = {
+    "positional": {"field", "sources", "sinks", "source_value", "sink_value", "decay"},
+    "fields": {"fields"},
+    "points": {"field", "count", "density", "low", "high", "seed"},
+    "simulate": {"model", "preset", "steps", "time", "dt", "seed", "init", "init_options",
+                 "params", "initial", "boundary", "directions", "omega", "outputs", "show",
+                 "cmap", "unsafe"},
+}
+_COMMON = {"kind", "name", "view"}
+
+
+def load_pipeline(path: str | Path) -> dict[str, Any]:
+    """Read and check a pipeline file; returns ``{"mesh": {...}, "stage": [...], "base": dir}``."""
+    p = Path(path)
+    if not p.is_file():
+        raise MorphogenError(f"pipeline file {p} does not exist")
+    try:
+        data = tomllib.loads(p.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise MorphogenError(f"pipeline file {p}: {exc}") from None
+    extra = set(data) - {"mesh", "stage", "seed", "cmap", "view"}
+    if extra:
+        raise MorphogenError(f"pipeline file {p}: unknown keys {sorted(extra)}; use [mesh] and "
+                             "[[stage]] tables")
+    if not isinstance(data.get("mesh"), dict):
+        raise MorphogenError(f"pipeline file {p} needs a [mesh] table (shape = ... or file = ...)")
+    stages = data.get("stage", [])
+    if not isinstance(stages, list) or not stages:
+        raise MorphogenError(f"pipeline file {p} has no [[stage]] tables")
+    for i, stage in enumerate(stages, 1):
+        kind = stage.get("kind")
+        if kind not in KINDS:
+            raise MorphogenError(f"stage {i}: kind must be one of {', '.join(KINDS)}, got {kind!r}")
+        unknown = set(stage) - _KEYS[kind] - _COMMON
+        if unknown:
+            raise MorphogenError(f"stage {i} ({kind}): unknown keys {sorted(unknown)}; allowed: "
+                                 f"{', '.join(sorted(_KEYS[kind] | _COMMON))}")
+    return {**data, "base": p.parent}
+
+
+def build_mesh(spec: Mapping[str, Any], base: Path = Path(".")) -> Mesh:
+    """The mesh of a ``[mesh]`` table: ``file = "x.ply"`` or ``shape = ...`` with the
+    generator's keyword arguments, and an optional uniform ``scale``."""
+    from morphogen import flowers
+    from morphogen.mesh_io import load_mesh
+
+    args = dict(spec)
+    scale = float(args.pop("scale", 1.0))
+    if "file" in args:
+        mesh = load_mesh(base / args.pop("file"))
+        if args:
+            raise MorphogenError(f"[mesh] with file takes only scale; got {sorted(args)}")
+    else:
+        shape = args.pop("shape", None)
+        if shape not in flowers.SHAPES:
+            raise MorphogenError(f"[mesh] needs file = ... or shape = one of "
+                                 f"{', '.join(flowers.SHAPES)}")
+        try:
+            mesh = getattr(flowers, shape)(**args)
+        except TypeError as exc:
+            raise MorphogenError(f"[mesh] {shape}: {exc}") from None
+    if scale != 1.0:
+        if not (np.isfinite(scale) and scale > 0):
+            raise MorphogenError(f"[mesh] scale must be positive, got {scale}")
+        mesh = mesh.replace(vertices=mesh.vertices * scale)
+    return mesh
+
+
+def evaluate(text: Any, mesh: Mesh) -> np.ndarray:
+    """A number, or an expression of the mesh's fields and ``x, y, z`` -> ``(V,)`` float64."""
+    from morphogen.models.expr import compile_expression
+
+    if isinstance(text, int | float) and not isinstance(text, bool):
+        return np.full(mesh.n_vertices, float(text))
+    if not isinstance(text, str):
+        raise MorphogenError(f"expected a number or an expression, got {text!r}")
+    env = {**mesh.fields, **{k: mesh.vertices[:, i] for i, k in enumerate("xyz")}}
+    expr = compile_expression(text, env, what="fields and x, y, z")
+    out = np.broadcast_to(np.asarray(expr(env), np.float64), (mesh.n_vertices,)).copy()
+    if not np.all(np.isfinite(out)):
+        raise MorphogenError(f"expression {text!r} gives non-finite values")
+    return out
+
+
+def run_pipeline(
+    pipeline: Mapping[str, Any] | str | Path,
+    out: str | Path,
+    *,
+    resume: bool = False,
+    progress: bool = False,
+) -> Mesh:
+    """Run every stage in order; returns the mesh with all fields. Outputs are described in the
+    module docstring."""
+    from morphogen.mesh_io import save_ply
+
+    spec = load_pipeline(pipeline) if isinstance(pipeline, str | Path) else pipeline
+    out_dir = ensure_writable_dir(out)
+    mesh = build_mesh(spec["mesh"], Path(spec.get("base", ".")))
+    record: dict[str, Any] = {"mesh": {"vertices": mesh.n_vertices, "faces": mesh.n_faces,
+                                       **{k: v for k, v in spec["mesh"].items()}}, "stages": []}
+    colours = None
+    for i, stage in enumerate(spec["stage"], 1):
+        name = stage.get("name", stage["kind"])
+        stage_dir = ensure_writable_dir(out_dir / f"{i:02d}-{_slug(name)}")
+        started = time.perf_counter()
+        cached = _cached(stage_dir, stage) if resume else None
+        info: dict[str, Any] = {"name": name, "kind": stage["kind"], "dir": stage_dir.name}
+        if cached is not None:
+            fields, info["resumed"] = cached, True
+        else:
+            fields, extra, colours = _run_stage(stage, mesh, spec, stage_dir, progress)
+            info.update(extra)
+            write_npz(stage_dir / "fields.npz", fields)
+            write_json(stage_dir / "stage.json", stage)
+        mesh = mesh.with_fields(**fields)
+        info.update(fields=sorted(fields), seconds=round(time.perf_counter() - started, 3))
+        record["stages"].append(info)
+    save_ply(out_dir / "final.ply", mesh, colours=colours)
+    write_json(out_dir / "pipeline.json", record)
+    return mesh
+
+
+def _slug(name: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_" else "-" for c in name)
+
+
+def _cached(stage_dir: Path, stage: Mapping[str, Any]) -> dict[str, np.ndarray] | None:
+    try:
+        same = json.loads((stage_dir / "stage.json").read_text()) == json.loads(
+            json.dumps(stage))
+        if not same:
+            return None
+        with np.load(stage_dir / "fields.npz") as data:
+            return {k: data[k] for k in data.files}
+    except (OSError, ValueError):
+        return None
+
+
+def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
+    """Returns ``(new fields, record entries, vertex colours or None)``."""
+    from morphogen.flowers import positional_information, seed_field
+
+    kind = stage["kind"]
+    view = stage.get("view", spec.get("view", "oblique"))
+    if kind == "positional":
+        name = stage.get("field", "g")
+        g = positional_information(
+            mesh, stage.get("sources", "margin"), stage.get("sinks", "base"),
+            source_value=float(stage.get("source_value", 1.0)),
+            sink_value=float(stage.get("sink_value", 0.0)), decay=float(stage.get("decay", 0.0)))
+        colours = _preview(stage_dir, mesh, g, spec.get("cmap", "viridis"), view)
+        return {name: g}, {}, colours
+    if kind == "fields":
+        table = stage.get("fields", {})
+        if not isinstance(table, dict) or not table:
+            raise MorphogenError("a fields stage needs fields = { name = \"expression\", ... }")
+        new: dict[str, np.ndarray] = {}
+        for key, text in table.items():
+            new[key] = evaluate(text, mesh.with_fields(**new))
+        return new, {}, None
+    if kind == "points":
+        density = stage.get("density")
+        f = None if density is None else evaluate(density, mesh)
+        field = seed_field(mesh.n_vertices, int(stage.get("count", 100)), density=f,
+                           low=float(stage.get("low", 1.0)), high=float(stage.get("high", 1.0)),
+                           seed=int(stage.get("seed", spec.get("seed", 0))))
+        return {stage.get("field", "points"): field}, {}, None
+    return _simulate_stage(stage, mesh, spec, stage_dir, progress)
+
+
+def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
+    """One simulation: model, parameters and initial values from fields, then outputs."""
+    from morphogen.initial import make_initial
+    from morphogen.mesh_io import apply_fields, write_mesh_outputs
+    from morphogen.models.equations import load_model
+    from morphogen.simulate import simulate
+    from morphogen.steppers import max_stable_dt
+
+    if "model" not in stage:
+        raise MorphogenError("a simulate stage needs model = NAME or a model file")
+    ref = str(stage["model"])
+    base = Path(spec.get("base", "."))
+    model = load_model(str(base / ref) if ref.endswith(".toml") else ref)
+    domain = mesh.replace(boundary=stage.get("boundary", "neumann"), omega=stage.get("omega"))
+    if "directions" in stage:
+        domain = domain.replace(directions=domain.face_gradient(evaluate(stage["directions"],
+                                                                         mesh)))
+    values = model.parameters(preset=stage.get("preset"))
+    seed = int(stage.get("seed", spec.get("seed", 0)))
+    init = stage.get("init", model.init)
+    u0 = make_initial(init, model, domain, values, seed=seed, **stage.get("init_options", {}))
+    u0, values = apply_fields(model, domain, u0, values)
+    for key, text in stage.get("params", {}).items():
+        if key not in model.params:
+            raise MorphogenError(f"unknown parameter {key!r} for model {model.name}")
+        values[key] = text if isinstance(text, int | float) else evaluate(text, mesh)
+    params = {k: np.asarray(v, np.float32) for k, v in values.items()}
+    current = mesh.with_fields(**{s: u0[i] for i, s in enumerate(model.species)})
+    for key, text in stage.get("initial", {}).items():
+        u0[model.species_index(key)] = evaluate(text, current)
+    dt = stage.get("dt")
+    if dt is None:
+        dt = min(model.dt, 0.9 * max_stable_dt(model, domain, params))
+    dt = float(dt)
+    if "steps" in stage:
+        steps = int(stage["steps"])
+    else:
+        steps = int(round(float(stage.get("time", model.t_end)) / dt))
+    sol = simulate(model, domain, u0, params, steps=steps, dt=dt, seed=seed, progress=progress,
+                   unsafe=bool(stage.get("unsafe", False)))
+    write_npz(stage_dir / "state.npz", {s: sol.state[i] for i, s in enumerate(model.species)})
+    show = stage.get("show", model.display_species)
+    write_mesh_outputs(stage_dir, domain, model, sol.state,
+                       stage.get("cmap", spec.get("cmap", "viridis")), species=show,
+                       view=stage.get("view", spec.get("view", "oblique")))
+    from morphogen.render.colour import colourise
+
+    colours = colourise(sol.state[model.species_index(show)],
+                        stage.get("cmap", spec.get("cmap", "viridis")))
+    rename = stage.get("outputs", {})
+    fields = {rename.get(s, s): sol.state[i] for i, s in enumerate(model.species)}
+    return fields, {"model": model.name, "steps": steps, "dt": dt, "t": sol.t,
+                    "wall_time": round(sol.wall_time, 3)}, colours
+
+
+def _preview(stage_dir: Path, mesh: Mesh, values: np.ndarray, cmap: Any, view: Any):
+    from morphogen.render.colour import colourise
+    from morphogen.render.images import write_png
+    from morphogen.render.mesh import render_mesh
+
+    colours = colourise(values, cmap)
+    write_png(stage_dir / "out.png", render_mesh(mesh.vertices, mesh.faces, colours, view=view))
+    return colours
