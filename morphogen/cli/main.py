@@ -21,6 +21,8 @@ COMMANDS = (
     "morphogen.cli.serve_cmd",
     "morphogen.cli.evolve_cmd",
     "morphogen.cli.runs_cmd",
+    "morphogen.cli.mesh_cmd",
+    "morphogen.cli.pipeline_cmd",
 )
 """Modules that provide sub-commands, in the order ``--help`` lists them."""
 
