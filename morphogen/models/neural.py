@@ -260,7 +260,9 @@ def read_neural_file(path: str | Path) -> tuple[NeuralConfig, dict[str, np.ndarr
     except json.JSONDecodeError:
         raise MorphogenError(f"{path}: the 'config' entry is not valid JSON") from None
     if info.get("format") != FORMAT:
-        raise MorphogenError(f"{path} is not a morphogen neural model (format {info.get('format')!r})")
+        raise MorphogenError(
+            f"{path} is not a morphogen neural model (format {info.get('format')!r})"
+        )
     if int(info.get("version", 0)) > FORMAT_VERSION:
         raise MorphogenError(
             f"{path} was written by a newer morphogen (format version {info['version']}); upgrade"
