@@ -20,6 +20,7 @@ from morphogen.errors import MorphogenError
 from morphogen.initial import make_initial
 from morphogen.render.colour import colourise
 from morphogen.simulate import simulate
+from morphogen.steppers import max_stable_dt
 from morphogen.web.batch import colour_map
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.jobs import Job, Progress
@@ -69,7 +70,8 @@ async def start(request: Request, body: JSONBody):
             f"size x detail is {size * detail:g}; the server allows {MAX_ACROSS:g} "
             "(about 18 000 vertices): lower the size or the detail"
         )
-    dt = number(body.get("dt", model.dt), "dt", 1e-6, 1e3)
+    given_dt = body.get("dt")
+    dt = model.dt if given_dt is None else number(given_dt, "dt", 1e-6, 1e3)
     steps = integer(body.get("steps", round(model.t_end / dt)), "steps", 1, 200_000)
     init = choice(body.get("init") or (model.init if model.init in INITIAL_KINDS else "noise"),
                   "initial condition", INITIAL_KINDS)
@@ -82,9 +84,12 @@ async def start(request: Request, body: JSONBody):
         progress(0.0, "building the mesh")
         mesh = build_mesh(shape, petals, size, detail)
         check_budget(mesh.n_vertices, steps, 1, lim)
+        # the model's dt, lowered below the mesh's explicit stability limit unless given
+        step_dt = dt if given_dt is not None else min(
+            dt, 0.95 * max_stable_dt(model, mesh, values))
         progress(0.05, f"simulating {steps} steps on {mesh.n_vertices} vertices")
         u0 = make_initial(init, model, mesh, values, seed=seed)
-        sol = simulate(model, mesh, u0, values, steps=steps, dt=dt, seed=seed,
+        sol = simulate(model, mesh, u0, values, steps=steps, dt=step_dt, seed=seed,
                        clamp=model.clamp)
         field = np.asarray(sol.state[index], np.float64)
         rgb = colourise(field, cmap)
@@ -102,7 +107,7 @@ async def start(request: Request, body: JSONBody):
             "faces": faces.ravel().tolist(),
             "colours": rgb.ravel().tolist(),
             "n_vertices": int(mesh.n_vertices), "n_faces": int(mesh.n_faces),
-            "model": model.name, "species": species, "steps": steps, "dt": dt,
+            "model": model.name, "species": species, "steps": steps, "dt": step_dt,
             "range": [float(np.nanmin(field)), float(np.nanmax(field))],
             "wall_time_s": round(sol.wall_time, 3),
         }

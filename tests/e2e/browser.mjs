@@ -203,6 +203,36 @@ const SCENARIOS = {
     return { run, picked, runs: runs.runs, gen1: gen1.individuals.map((i) => i.fitness) };
   },
 
+  async mesh(page) {
+    await page.goto(`${base}#mesh`);
+    await page.waitForSelector('#me-go');
+    await page.fill('#me-size', '90');
+    await page.fill('#me-steps', '3000');
+    await page.click('#me-go');
+    await page.waitForFunction(() => !document.getElementById('me-still').hidden
+      || !document.querySelector('#mesh-root .error').hidden, null, { timeout: 120000 });
+    const error = await page.textContent('#mesh-root .error');
+    if (error) throw new Error(`the mesh page showed an error: ${error}`);
+    const print = () => page.evaluate(() => {
+      const c = document.getElementById('me-canvas');
+      const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+      let s = 0;
+      for (let i = 0; i < d.length; i += 97) s += d[i] * (i % 13);
+      return s;
+    });
+    const before = await print();
+    const box = await page.locator('#me-canvas').boundingBox();
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+    await page.mouse.down();
+    await page.mouse.move(box.x + box.width / 2 + 40, box.y + box.height / 2 - 60, { steps: 6 });
+    await page.mouse.up();
+    const after = await print();
+    await page.waitForTimeout(300);
+    await page.screenshot({ path: join(out, 'mesh.png') });
+    const res = await page.evaluate(() => window.morphogenMesh.mesh.f.length / 3);
+    return { before, after, faces: res };
+  },
+
   async tabs(page, context) {
     await openExplore(page);
     const other = await context.newPage();

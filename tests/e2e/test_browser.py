@@ -142,3 +142,9 @@ def test_two_tabs_have_their_own_simulations(server):
 def test_unsafe_equation_text_is_refused_in_the_page(server):
     data = scenario(server, "equations")
     assert data["error"].strip() and data["model"] == "gray-scott"
+
+
+def test_mesh_page_grows_and_rotates_a_flower(server):
+    data = scenario(server, "mesh")
+    assert data["faces"] > 1000
+    assert data["before"] != data["after"], "dragging did not rotate the view"

@@ -1,7 +1,7 @@
 // Mesh: a pattern grown on a flower mesh on the server, shown on a canvas you can rotate
 // (drag) and zoom (wheel); the server's still rendering is shown beside it.
 
-import { api, el, fillSelect, showError, waitForJob } from './api.js';
+import { api, el, fillSelect, fmt, showError, waitForJob } from './api.js';
 
 export class Mesh {
   constructor(root, app) {
@@ -38,8 +38,8 @@ export class Mesh {
         el('fieldset', {}, el('legend', { text: 'Pattern' }), row('Model', u.model), row('Steps', u.steps), row('Colours', u.cmap)),
         u.go),
       el('div', { class: 'stage' }, u.error, u.bar, u.message,
-        el('div', { class: 'layout' }, u.canvas, u.still),
-        el('p', { class: 'muted small', text: 'Drag to rotate, scroll to zoom.' }))));
+        u.canvas,
+        el('p', { class: 'muted small', text: 'Drag to rotate, scroll to zoom. Below: the same state rendered on the server.' }), u.still)));
     u.go.addEventListener('click', () => this.grow());
     this.bindView();
   }
@@ -63,7 +63,7 @@ export class Mesh {
       this.setMesh(res);
       u.still.src = res.image;
       u.still.hidden = false;
-      u.message.textContent = `${res.model} on ${res.n_vertices} vertices, ${res.steps} steps of dt = ${res.dt} `
+      u.message.textContent = `${res.model} on ${res.n_vertices} vertices, ${res.steps} steps of dt = ${fmt(res.dt)} `
         + `(${res.wall_time_s} s); ${res.species} from ${res.range[0].toPrecision(3)} to ${res.range[1].toPrecision(3)}`;
     } catch (err) {
       showError(u.error, err.message);
