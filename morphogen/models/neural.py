@@ -19,10 +19,11 @@ with ``W0`` of shape ``(n, h)``, ``b0`` ``(h,)`` and ``W1`` ``(h, n)``. Its disc
 Here it is an ordinary :class:`~morphogen.models.model.Model`: the reaction is ``r * f(x)`` and
 the diffusion coefficient of channel ``i`` is ``c_i * d * KERNEL_SCALE``; one explicit Euler step
 with ``dt = 1`` on a unit grid is exactly eq. 1 with ``K_lap = KERNEL_SCALE * (domain
-Laplacian)``. ``r`` and ``d`` are parameters (scalars or fields, fig. 4), and the network weights
-travel in the parameter pytree too, so they stay runtime values: the same compiled program runs
-any weights, ``jax.grad`` flows to them, and the model runs unchanged on any domain that has a
-diffusion operator (2D or 3D grid, triangle mesh).
+Laplacian)``. ``r`` and ``d`` are parameters (scalars or fields, fig. 4). The network weights
+are runtime parameters too: passed in the parameter pytree (``W0``, ``b0``, ``W1``) they override
+the model's own, so the same compiled program runs any weights and ``jax.grad`` flows to them.
+The model runs unchanged on any domain that has a diffusion operator (2D or 3D grid, triangle
+mesh).
 
 The diffusion coefficients are fixed in four groups ``c = 1/8, 1/4, 1/2, 1`` (the paper's texture
 experiments, so the RGB channels ``x0..x2`` diffuse slowest) or learned as
@@ -154,6 +155,13 @@ def neural_model(
 ) -> Model:
     """A neural RD :class:`Model` with channels ``x0 .. x{n-1}``.
 
+    The model's listed parameters are the rates ``r`` and ``d`` (scalars or fields, so the model
+    fits everywhere parameters are resolved: run files, searches, the web app). The weights are
+    runtime parameters too: a parameter dict that holds ``W0``, ``b0``, ``W1`` (``c_hat``)
+    overrides the model's own, which is how training and gradient code pass them (one compiled
+    program for any weights, gradients flow to them); without them the model's trained weights
+    are used.
+
     Args:
         config: channel and hidden sizes, diffusion mode.
         weights: ``W0`` ``(n, h)``, ``b0`` ``(h,)``, ``W1`` ``(h, n)`` (and ``c_hat`` ``(n,)``
@@ -168,18 +176,20 @@ def neural_model(
     n = config.channels
     species = tuple(f"x{i}" for i in range(n))
 
+    def with_weights(p: Params) -> dict:
+        return {k: (p[k] if k in p else v) for k, v in checked.items()}
+
     def reaction(u: Array, p: Params, c: Mapping) -> Array:
-        return reaction_network(u, p) * p["r"]
+        return reaction_network(u, with_weights(p)) * p["r"]
 
     def diffusion(p: Params, c: Mapping) -> tuple:
-        coeff = diffusion_coefficients(config, p) * (p["d"] * KERNEL_SCALE)
+        coeff = diffusion_coefficients(config, with_weights(p)) * (p["d"] * KERNEL_SCALE)
         return tuple(coeff[i] for i in range(n))
 
-    params: dict[str, Any] = {**checked, "r": float(r), "d": float(d)}
     return Model(
         name=name,
         species=species,
-        params=params,
+        params={"r": float(r), "d": float(d)},
         reaction=reaction,
         diffusion=diffusion,
         ground=lambda p: (0.0,) * n,
