@@ -55,12 +55,16 @@ KEYS = (
 def load_model(name_or_path: str | os.PathLike) -> Model:
     """A library model by name, or a model file.
 
-    A path ending in ``.toml`` is parsed; otherwise a library name is looked up, and an
-    existing file of that name is parsed.
+    A path ending in ``.toml`` is parsed, one ending in ``.npz`` is read as a trained neural RD
+    model; otherwise a library name is looked up, and an existing file of that name is parsed.
     """
     text = os.fspath(name_or_path)
     if text.endswith(".toml"):
         return load_model_file(text)
+    if text.endswith(".npz"):
+        from morphogen.models.neural import load_neural_model
+
+        return load_neural_model(text)
     from morphogen.models.library import LIBRARY, get_model
 
     if text not in LIBRARY and os.path.isfile(text):
