@@ -47,7 +47,8 @@ def _reference_rate(mesh, params, u0, steps: int) -> float:
     p = {k: np.asarray(v, np.float32) for k, v in params.items()}
     start = time.perf_counter()
     for _ in range(steps):
-        da = p["rho_a"] * a * a / (h + p["kappa"]) + p["rho_a0"] - p["mu_a"] * a + p["Da"] * (lap @ a)
+        da = (p["rho_a"] * a * a / (h + p["kappa"]) + p["rho_a0"] - p["mu_a"] * a
+              + p["Da"] * (lap @ a))
         dh = p["rho_h"] * a * a + p["rho_h0"] - p["mu_h"] * h + p["Dh"] * (lap @ h)
         a, h = a + DT * da, h + DT * dh
     return mesh.n_vertices * steps / (time.perf_counter() - start)

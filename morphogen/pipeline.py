@@ -63,7 +63,7 @@ from morphogen.io import ensure_writable_dir, write_json, write_npz
 
 KINDS = ("positional", "fields", "points", "simulate")
 _KEYS = {
-    "positional": {"field", "sources", "sinks", "source_value", "sink_value", "decay"},
+    "positional": {"field", "sources", "sinks", "source_value", "sink_value", "decay", "cmap"},
     "fields": {"fields"},
     "points": {"field", "count", "density", "low", "high", "seed"},
     "simulate": {"model", "preset", "steps", "time", "dt", "seed", "init", "init_options",
@@ -212,7 +212,8 @@ def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
             mesh, stage.get("sources", "margin"), stage.get("sinks", "base"),
             source_value=float(stage.get("source_value", 1.0)),
             sink_value=float(stage.get("sink_value", 0.0)), decay=float(stage.get("decay", 0.0)))
-        colours = _preview(stage_dir, mesh, g, spec.get("cmap", "viridis"), view)
+        colours = _preview(stage_dir, mesh, g, stage.get("cmap", spec.get("cmap", "viridis")),
+                           view)
         return {name: g}, {}, colours
     if kind == "fields":
         table = stage.get("fields", {})
