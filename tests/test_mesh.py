@@ -224,3 +224,22 @@ def test_padded_table_with_tail_matches_sparse_product(monkeypatch):
     expected = dense @ x[0] - dense.sum(axis=1) * x[0]
     got = table.apply_differences(jnp.asarray(x[0]), jnp.asarray(d))
     assert np.allclose(got, expected, atol=1e-4)
+
+
+def test_batch_on_a_mesh_equals_a_loop():
+    from morphogen.simulate import simulate_batch
+    from morphogen.steppers import batch_params
+
+    mesh = lattice_mesh(10, 10, spacing=0.5, omega=1e4)
+    model = heat()
+    u0 = np.random.default_rng(3).random((2, 1, mesh.n_vertices)).astype(np.float32) + 1.0
+    params = batch_params({**model.params, "D": np.array([0.1, 0.3], np.float32)}, 2, ["D"])
+    run = dict(steps=20, dt=0.05, seed=7)
+    batch = simulate_batch(model, mesh, u0, params, **run)
+    keys = jax.random.split(jax.random.PRNGKey(7), 2)
+    step = make_step(model, mesh)
+    for b in range(2):
+        one = {k: v[b] for k, v in params.items()}
+        u, _, _ = integrate(step, jnp.asarray(u0[b]), one, steps=20, dt=0.05, key=keys[b])
+        assert np.allclose(batch.state[b], np.asarray(u), atol=1e-6)
+    assert batch.valid.all()
