@@ -345,3 +345,14 @@ def test_mesh_job_returns_a_coloured_flower(client):
                            ({"shape": "teapot"}, "shape")):
         r = client.post("/api/mesh", json=body)
         assert r.status_code == 400 and fragment in r.json()["error"]
+
+
+@pytest.mark.parametrize("name", sorted(LIBRARY))
+def test_every_library_model_runs_live(client, name):
+    state = new_session(client, model={"library": name}, init=None)
+    model = get_model(name)
+    assert state["dt"] <= min(model.dt, state["dt_max"])
+    assert state["show"] == model.display_species
+    f = frame(client, state["id"])
+    assert f["steps"] == state["steps_per_frame"]
+    assert np.isfinite(sim_of(client, state["id"]).state()).all()

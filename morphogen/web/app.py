@@ -13,6 +13,7 @@ Content-Security-Policy of ``'self'`` keeps the browser from fetching anything f
 from __future__ import annotations
 
 from collections.abc import Sequence
+from contextlib import asynccontextmanager
 from pathlib import Path
 
 from fastapi import FastAPI, Request
@@ -60,7 +61,14 @@ def create_app(
         allowed_hosts: accepted ``Host`` headers (guards a local server against DNS
             rebinding); add the public name when serving beyond 127.0.0.1.
     """
-    app = FastAPI(title="morphogen", docs_url=None, redoc_url=None, openapi_url=None)
+    @asynccontextmanager
+    async def lifespan(app: FastAPI):
+        yield
+        app.state.jobs.shutdown()
+        app.state.evolve.stop_all()
+
+    app = FastAPI(title="morphogen", docs_url=None, redoc_url=None, openapi_url=None,
+                  lifespan=lifespan)
     lim = limits or Limits()
     app.state.limits = lim
     app.state.sessions = SessionStore(lim)
