@@ -13,6 +13,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -40,16 +41,23 @@ def server(browser_ready, tmp_path_factory):
     """``morphogen serve`` on 127.0.0.1 and a free port, with its own run archive."""
     archive = tmp_path_factory.mktemp("archive") / "index.sqlite"
     env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONUNBUFFERED": "1"}
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "morphogen.cli.main", "serve", "--port", "0",
-         "--archive", str(archive)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, cwd=ROOT,
-    )
+    log_path = OUT / "server.log"
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "morphogen.cli.main", "serve", "--port", "0",
+             "--archive", str(archive)],
+            stdout=log, stderr=subprocess.STDOUT, text=True, env=env, cwd=ROOT,
+        )
     try:
-        line = proc.stdout.readline()
-        if "http://127.0.0.1:" not in line:
-            pytest.fail(f"the server did not start: {line}{proc.stdout.read()}")
-        url = line.split()[4]
+        url = None
+        end = time.monotonic() + 120
+        while url is None and time.monotonic() < end and proc.poll() is None:
+            for word in log_path.read_text().split():
+                if word.startswith("http://127.0.0.1:"):
+                    url = word
+            time.sleep(0.1)
+        if url is None:
+            pytest.fail(f"the server did not start: {log_path.read_text()}")
         yield url
     finally:
         proc.terminate()
