@@ -121,7 +121,8 @@ def build_domain(config: RunConfig, model: Model) -> Any:
     if config.mesh:
         from morphogen.domains.mesh import load_mesh
 
-        return load_mesh(config.mesh)
+        mesh_args = {} if config.boundary == "periodic" else {"boundary": config.boundary}
+        return load_mesh(config.mesh, **mesh_args)
     grid = Grid(tuple(config.size), dx=config.dx, boundary=config.boundary,
                 stencil=config.stencil)
     grid.boundaries(model.species)
@@ -135,6 +136,10 @@ def prepare(config: RunConfig) -> Prepared:
     domain = build_domain(config, model)
     values = model.parameters(config.params, preset=config.preset)
     params = resolve_params(model, domain, values)
+    u0 = make_initial(config.init or model.init, model, domain, params, seed=config.seed,
+                      **config.init_options)
+    if config.mesh:
+        u0, params = _mesh_fields(config, model, domain, u0, params)
     dt = float(config.dt) if config.dt is not None else _default_dt(model, domain, params, config)
     if config.steps is not None and config.time is not None:
         raise MorphogenError("give either --steps or --time, not both")
@@ -147,9 +152,18 @@ def prepare(config: RunConfig) -> Prepared:
         raise MorphogenError(f"the run needs at least one step (got {steps})")
     if config.species is not None:
         model.species_index(config.species)
-    u0 = make_initial(config.init or model.init, model, domain, values, seed=config.seed,
-                      **config.init_options)
     return Prepared(config, model, domain, params, u0, dt, steps)
+
+
+def _mesh_fields(config: RunConfig, model: Model, mesh: Any, u0: np.ndarray,
+                 values: dict[str, Any]) -> tuple[np.ndarray, dict[str, Any]]:
+    """PLY vertex properties named like a species give its initial value (unless ``--init`` is
+    given); those named like a parameter give a per-vertex field (unless ``-p`` sets it)."""
+    from morphogen.mesh_io import apply_fields
+
+    mesh_u0, mesh_values = apply_fields(model, mesh, u0, values)
+    mesh_values.update({k: values[k] for k in config.params})
+    return (u0 if config.init is not None else mesh_u0), mesh_values
 
 
 def set_precision(precision: str) -> None:

@@ -128,7 +128,8 @@ def max_stable_dt(model: Model, domain: Any, params: Params, scheme: str = "eule
     For the 5-point stencil and Euler this is ``dt <= dx^2 / (2 * dims * D_max)``; in general
     ``dt <= c / (rho(L) * D_max)`` with ``rho(L)`` the spectral radius of the discrete Laplacian
     and ``c`` the stability interval of the scheme (2 for Euler, 2.785 for RK4). Anisotropic
-    tensors use ``max((D_xx + D_yy) / 2 + |D_xy|)``.
+    tensors use their largest eigenvalue
+    ``max((D_xx + D_yy) / 2 + sqrt(((D_xx - D_yy) / 2)^2 + D_xy^2))``.
     """
     coords = {**domain.coords, "t": 0.0}
     coeffs = model.diffusion({k: np.asarray(v) for k, v in params.items()}, coords)
@@ -141,7 +142,7 @@ def max_stable_dt(model: Model, domain: Any, params: Params, scheme: str = "eule
 def _coefficient_bound(d: Any) -> float:
     if isinstance(d, Tensor):
         xx, xy, yy = (np.asarray(c, np.float64) for c in d)
-        return float(np.max(0.5 * (xx + yy) + np.abs(xy)))
+        return float(np.max(0.5 * (xx + yy) + np.sqrt((0.5 * (xx - yy)) ** 2 + xy**2)))
     return float(np.max(np.abs(np.asarray(d, np.float64))))
 
 

@@ -172,3 +172,34 @@ def test_float64_on_request(tmp_path):
     assert result.returncode == 0, result.stderr
     assert np.load(tmp_path / "o" / "state.npz")["v"].dtype == np.float64
     assert json.loads((tmp_path / "o" / "run.json").read_text())["config"]["precision"] == "float64"
+
+
+def test_mesh_run_takes_species_and_parameter_fields_from_the_ply(tmp_path):
+    """A PLY vertex property named like a species is its initial value; one named like a
+    parameter is a per-vertex field (unless -p sets it)."""
+    from plyfile import PlyData, PlyElement
+
+    n = 12
+    ys, xs = np.mgrid[0:n, 0:n].astype(np.float32)
+    v0 = (xs > n / 2).astype(np.float32) * 0.25
+    verts = np.zeros(n * n, dtype=[("x", "f4"), ("y", "f4"), ("z", "f4"), ("u", "f4"),
+                                   ("v", "f4"), ("F", "f4")])
+    verts["x"], verts["y"] = xs.ravel(), ys.ravel()
+    verts["u"], verts["v"], verts["F"] = 1.0 - v0.ravel(), v0.ravel(), 0.0
+    faces = []
+    for i in range(n - 1):
+        for j in range(n - 1):
+            a = i * n + j
+            faces += [([a, a + 1, a + n + 1],), ([a, a + n + 1, a + n],)]
+    face = np.array(faces, dtype=[("vertex_indices", "i4", (3,))])
+    PlyData([PlyElement.describe(verts, "vertex"),
+             PlyElement.describe(face, "face")]).write(str(tmp_path / "sheet.ply"))
+    out = tmp_path / "o"
+    assert main(["simulate", "gray-scott", "--mesh", str(tmp_path / "sheet.ply"), "--steps", "1",
+                 "--dt", "0.01", "--out", str(out), "--quiet"]) == 0
+    state = np.load(out / "state.npz")
+    np.testing.assert_allclose(state["v"], v0.ravel(), atol=0.01)
+    resolved = json.loads((out / "run.json").read_text())["resolved"]["params"]
+    assert resolved["F"] == {"field": [n * n], "min": 0.0, "max": 0.0}
+    assert resolved["k"] == pytest.approx(0.06)
+    assert (out / "out.ply").is_file()
