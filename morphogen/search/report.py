@@ -30,12 +30,29 @@ def individual_path(directory: Path, gen: int, idx: int) -> Path:
     return Path(directory) / "generations" / f"gen_{gen:03d}" / f"ind_{idx:02d}.png"
 
 
-def tiles(fields: np.ndarray, cmap: str = "viridis") -> np.ndarray:
-    """Each final display field ``(P, *spatial)`` as an RGB tile ``(P, H, W, 3)`` uint8, on its
-    own colour scale (like Skaggs figs. 4.1-4.6); 3D fields show their mid-plane."""
+def tiles(fields: np.ndarray, cmap: str = "viridis", flat_tol: float = 1e-3) -> np.ndarray:
+    """Each final display field ``(P, *spatial)`` as an RGB tile ``(P, H, W, 3)`` uint8; 3D
+    fields show their mid-plane.
+
+    Each tile has its own colour scale (its min to max), widened to at least the flatness
+    tolerance of the staged fitness (``flat_tol * max(1, max |u|)``) around its middle, so a
+    state that scores as uniform also looks uniform instead of showing stretched round-off.
+    """
     from morphogen.render import state_image
 
-    return np.stack([state_image(f, cmap) for f in np.asarray(fields)])
+    out = []
+    for f in np.asarray(fields, np.float64):
+        finite = f[np.isfinite(f)]
+        if finite.size == 0:
+            out.append(state_image(f, cmap))
+            continue
+        lo, hi = float(finite.min()), float(finite.max())
+        span = flat_tol * max(1.0, float(np.abs(finite).max()))
+        if hi - lo < span:
+            mid = 0.5 * (lo + hi)
+            lo, hi = mid - span / 2, mid + span / 2
+        out.append(state_image(f, cmap, lo, hi))
+    return np.stack(out)
 
 
 def write_individuals(directory: Path, gen: int, rgb: np.ndarray) -> list[str]:

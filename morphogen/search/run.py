@@ -154,7 +154,7 @@ def evolve(
                                                  bar.update)
         finally:
             bar.close()
-        rgb = report.tiles(metrics["fields"], config.get("cmap", "viridis"))
+        rgb = report.tiles(metrics["fields"], config.get("cmap", "viridis"), problem.flat_tol)
         images = report.write_individuals(directory, gen, rgb)
         title = f"{label} - generation {gen}"
         if problem.fitness == "user":
