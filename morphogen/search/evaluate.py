@@ -196,6 +196,7 @@ class Evaluator:
             t = ts[0]
             done += m
             if progress is not None:
+                u.block_until_ready()  # dispatch is asynchronous: wait, so the bar is true
                 progress(m)
         stable = self.stable(genomes)
         score = np.asarray(self._score(u), np.float32)
