@@ -127,9 +127,12 @@ def run(args: argparse.Namespace) -> int:
     print(f"run {run_id} in {archive.run(run_id)['dir']}", flush=True)
     result = evolve(run_id, archive, executor, select=ask_selection,
                     progress=options.show_progress(args), log=lambda line: print(line, flush=True))
-    genes = ", ".join(f"{g.name}={v:.6g}" for g, v in zip(problem.genes, result.best_genome,
-                                                            strict=True))
+    genes = gene_summary([g.name for g in problem.genes], result.best_genome)
     print(f"best fitness {result.best_fitness:.4f}: {genes}; see {result.directory}/best/")
     return 0
 
 
+def gene_summary(names: list[str], values, limit: int = 8) -> str:
+    """``F=0.0272, k=0.0516``; past ``limit`` genes, the count of the others."""
+    shown = ", ".join(f"{n}={v:.6g}" for n, v in zip(names[:limit], values[:limit], strict=True))
+    return shown + (f", ... ({len(names) - limit} more)" if len(names) > limit else "")

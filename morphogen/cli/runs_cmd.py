@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 
+from morphogen.cli.evolve_cmd import gene_summary
 from morphogen.errors import MorphogenError
 from morphogen.search.archive import Archive
 from morphogen.search.run import resolve_run
@@ -59,7 +60,9 @@ def show(archive: Archive, run_id: str) -> str:
     r = archive.run(run_id)
     c = r["config"]
     p, s = c["problem"], c["strategy"]
-    genes = ", ".join(f"{g['name']}=[{g['low']:g}, {g['high']:g}]" for g in p["genes"])
+    genes = ", ".join(f"{g['name']}=[{g['low']:g}, {g['high']:g}]" for g in p["genes"][:8])
+    if len(p["genes"]) > 8:
+        genes += f", ... ({len(p['genes']) - 8} more)"
     options = ", ".join(f"{k}={v}" for k, v in s.items() if k not in ("name", "population"))
     lines = [
         f"run {r['id']} ({r['status']}), created {_date(r['created'])}",
@@ -82,7 +85,7 @@ def show(archive: Archive, run_id: str) -> str:
         lines.append("  best individuals:")
         names = [g["name"] for g in p["genes"]]
         for rank, b in enumerate(best, start=1):
-            values = ", ".join(f"{n}={v:.6g}" for n, v in zip(names, b["genome"], strict=True))
+            values = gene_summary(names, b["genome"])
             lines.append(f"  {rank}. fitness {b['fitness']:.4f} (generation {b['gen']}, "
                          f"#{b['idx']}): {values}")
         lines.append(f"  parameters: {r['dir']}/best/best_1.json "
