@@ -19,9 +19,10 @@ import numpy as np
 
 from morphogen.search.evaluate import Evaluator, Problem
 from morphogen.search.ga import GeneticAlgorithm
-from morphogen.search.genes import preset_genes
+from morphogen.search.genes import SKAGGS_SCHEDULE, preset_genes
 
-SIZE, POPULATION, DT, T = 256, 20, 0.5, 2000.0
+SIZE, POPULATION = 256, 20
+DT, T = SKAGGS_SCHEDULE["gray-scott"]
 STEPS = int(T / DT)
 SKAGGS_TABLE_5_1 = {"cpu_1": 39.72, "cpu_16": 27.03, "gpu": 6.39}
 
