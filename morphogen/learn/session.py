@@ -1,0 +1,257 @@
+"""A training run on disk: the loop, periodic checkpoints, ``--resume``, samples and plots.
+
+A run directory holds
+
+- ``checkpoint.npz``: the full :class:`~morphogen.learn.train.TrainState` (weights, Adam state,
+  pool, iteration, key), the settings, the target image and the loss history; rewritten
+  atomically every ``checkpoint_every`` iterations and when the run is interrupted;
+- ``model.npz``: the trained rule (:func:`morphogen.models.neural.save_neural_model`), small,
+  runnable with ``morphogen simulate``;
+- ``loss.png`` and ``loss.csv``: the loss curve;
+- ``samples/iter_NNNNNN.png``: the target, four pool states and four fresh seeds grown with the
+  current weights.
+
+Resuming restores the state exactly, and iteration ``i`` always draws its randomness from
+``fold_in(key, i)``, so an interrupted and resumed run ends with the same weights as an
+uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from morphogen.errors import MorphogenError
+from morphogen.io import ensure_writable_dir, write_atomic, write_npz
+from morphogen.learn.features import make_extractor
+from morphogen.learn.loss import TextureLoss, texture_loss
+from morphogen.learn.textures import state_to_rgb, to_uint8
+from morphogen.learn.train import (
+    TrainConfig,
+    TrainState,
+    grow_samples,
+    init_state,
+    make_train_step,
+)
+from morphogen.models.neural import save_neural_model
+from morphogen.progress import ProgressBar
+
+CHECKPOINT = "checkpoint.npz"
+MODEL = "model.npz"
+SAMPLE_GROWTH_STEPS = 1000
+"""Steps the fresh seeds in sample images are grown for."""
+
+
+@dataclass
+class Run:
+    """A training run: settings, target, state and loss history."""
+
+    config: TrainConfig
+    target: np.ndarray
+    state: TrainState
+    losses: list[float]
+    target_name: str = ""
+
+    @property
+    def iteration(self) -> int:
+        return int(self.state.iteration)
+
+
+def resolve_features(config: TrainConfig) -> str:
+    """The extractor a run uses: ``auto`` becomes ``vgg`` when weights are found, else
+    ``random``."""
+    if config.features != "auto":
+        return config.features
+    from morphogen.learn.vgg import find_vgg_weights
+
+    return "vgg" if (config.vgg_weights or find_vgg_weights()) else "random"
+
+
+def build_loss(config: TrainConfig, target: np.ndarray) -> TextureLoss:
+    """The run's texture loss against ``target`` (``(S, S, 3)`` in ``[0, 1]``)."""
+    extractor = make_extractor(resolve_features(config), config.vgg_weights)
+    return texture_loss(target, extractor, config.n_rot)
+
+
+def new_run(config: TrainConfig, target: np.ndarray, target_name: str = "") -> Run:
+    """A fresh run at iteration 0."""
+    return Run(config, np.asarray(target, np.float32), init_state(config), [], target_name)
+
+
+def save_checkpoint(directory: str | Path, run: Run) -> Path:
+    """Write ``checkpoint.npz`` (atomically) and ``model.npz`` into ``directory``."""
+    directory = ensure_writable_dir(directory)
+    state = run.state
+    arrays = {f"weights/{k}": np.asarray(v) for k, v in state.weights.items()}
+    for i, leaf in enumerate(jax.tree_util.tree_leaves(state.opt_state)):
+        arrays[f"opt/{i}"] = np.asarray(leaf)
+    meta = {"config": run.config.to_dict(), "target_name": run.target_name}
+    arrays.update(
+        pool=np.asarray(state.pool),
+        iteration=np.asarray(state.iteration),
+        key=np.asarray(jax.random.key_data(state.key) if _typed(state.key) else state.key),
+        target=run.target,
+        losses=np.asarray(run.losses, np.float32),
+        meta=np.array(json.dumps(meta)),
+    )
+    path = directory / CHECKPOINT
+    write_npz(path, arrays)
+    save_model(directory / MODEL, run)
+    return path
+
+
+def save_model(path: str | Path, run: Run) -> Path:
+    """Write the run's current rule as a small neural model file."""
+    metadata = {
+        "target": run.target_name,
+        "iterations": run.iteration,
+        "features": resolve_features(run.config),
+        "training": {k: v for k, v in run.config.to_dict().items() if k != "vgg_weights"},
+    }
+    weights = {k: np.asarray(v) for k, v in run.state.weights.items()}
+    return save_neural_model(path, run.config.neural, weights, metadata)
+
+
+def load_checkpoint(directory: str | Path) -> Run:
+    """Read ``checkpoint.npz`` from a run directory.
+
+    Raises:
+        MorphogenError: no checkpoint there, or it does not match this version's layout.
+    """
+    path = Path(directory) / CHECKPOINT
+    if not path.is_file():
+        raise MorphogenError(f"no training checkpoint in {directory} (expected {path})")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {k: np.asarray(data[k]) for k in data.files}
+        meta = json.loads(str(arrays["meta"]))
+        config = TrainConfig.from_dict(meta["config"])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise MorphogenError(f"cannot read training checkpoint {path}: {exc}") from None
+    template = init_state(config)
+    weights = {k: jnp.asarray(arrays[f"weights/{k}"]) for k in template.weights}
+    leaves, treedef = jax.tree_util.tree_flatten(template.opt_state)
+    try:
+        opt_leaves = [
+            jnp.asarray(arrays[f"opt/{i}"], dtype=jnp.asarray(leaf).dtype)
+            for i, leaf in enumerate(leaves)
+        ]
+    except KeyError:
+        raise MorphogenError(f"training checkpoint {path} lacks optimiser state") from None
+    state = TrainState(
+        weights=weights,
+        opt_state=jax.tree_util.tree_unflatten(treedef, opt_leaves),
+        pool=jnp.asarray(arrays["pool"]),
+        iteration=jnp.asarray(arrays["iteration"], jnp.int32),
+        key=jnp.asarray(arrays["key"], template.key.dtype),
+    )
+    if state.pool.shape != template.pool.shape:
+        raise MorphogenError(f"training checkpoint {path}: pool shape does not match settings")
+    return Run(config, arrays["target"], state, [float(v) for v in arrays["losses"]],
+               meta.get("target_name", ""))
+
+
+def _typed(key: jax.Array) -> bool:
+    return jnp.issubdtype(key.dtype, jax.dtypes.prng_key)
+
+
+def train(
+    run: Run,
+    directory: str | Path | None,
+    *,
+    iterations: int | None = None,
+    progress: bool = False,
+    log: Callable[[str], None] | None = None,
+) -> Run:
+    """Continue ``run`` until ``iterations`` (default: its settings' ``iterations``) are done.
+
+    Writes checkpoints, samples and the loss curve into ``directory`` (nothing when ``None``).
+    On ``KeyboardInterrupt`` a checkpoint of the last finished iteration is written before the
+    interrupt propagates, so ``--resume`` continues from there.
+    """
+    config = run.config
+    total = config.iterations if iterations is None else int(iterations)
+    loss = build_loss(config, run.target)
+    step = make_train_step(config)
+    bar = ProgressBar(max(total - run.iteration, 0), enabled=progress, unit="it", desc="train")
+    try:
+        while run.iteration < total:
+            state, metrics = step(run.state, loss)
+            run.state = state
+            run.losses.append(float(metrics["loss"]))
+            bar.update(1)
+            i = run.iteration
+            if directory is not None and (i % config.checkpoint_every == 0 or i == total):
+                save_checkpoint(directory, run)
+                write_loss_curve(directory, run.losses)
+            if directory is not None and (i % config.sample_every == 0 or i == total):
+                write_samples(directory, run, loss)
+            if log is not None and (i % 10 == 0 or i == total):
+                log(f"iteration {i}: loss {np.mean(run.losses[-10:]):.4g}")
+    except KeyboardInterrupt:
+        if directory is not None:
+            save_checkpoint(directory, run)
+            write_loss_curve(directory, run.losses)
+        raise
+    finally:
+        bar.close()
+    return run
+
+
+def write_samples(directory: str | Path, run: Run, loss: TextureLoss) -> Path:
+    """``samples/iter_NNNNNN.png``: target | 4 pool states (top), target | 4 grown seeds."""
+    from morphogen.render import write_png
+
+    config = run.config
+    grown = grow_samples(config, run.state.weights, 4, SAMPLE_GROWTH_STEPS, run.iteration)
+    pool = run.state.pool[:4]
+    target = to_uint8(_fit(run.target, config.size))
+    rows = []
+    for states in (pool, grown):
+        tiles = to_uint8(np.asarray(state_to_rgb(states)))
+        rows.append(np.concatenate([target, *tiles], axis=1))
+    image = np.concatenate(rows, axis=0)
+    path = Path(directory) / "samples" / f"iter_{run.iteration:06d}.png"
+    return write_png(path, np.repeat(np.repeat(image, 2, axis=0), 2, axis=1))
+
+
+def _fit(img: np.ndarray, size: int) -> np.ndarray:
+    """Crop or tile an image ``(S, S, 3)`` to ``(size, size, 3)`` for display."""
+    reps = -(-size // img.shape[0])
+    return np.tile(img, (reps, reps, 1))[:size, :size]
+
+
+def write_loss_curve(directory: str | Path, losses: list[float]) -> None:
+    """``loss.csv`` (iteration, loss) and ``loss.png`` (log scale, with a running mean)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    directory = Path(directory)
+    values = np.asarray(losses, np.float64)
+    its = np.arange(1, len(values) + 1)
+    text = "iteration,loss\n" + "".join(f"{i},{v:.6g}\n" for i, v in zip(its, values, strict=True))
+    write_atomic(directory / "loss.csv", lambda fh: fh.write(text.encode()))
+    fig, ax = plt.subplots(figsize=(6, 3.5), dpi=100)
+    ax.semilogy(its, values, color="0.75", lw=0.8, label="per iteration")
+    if len(values) >= 10:
+        w = max(5, len(values) // 30)
+        mean = np.convolve(values, np.ones(w) / w, mode="valid")
+        ax.semilogy(its[w - 1 :], mean, color="C0", lw=1.5, label=f"mean of {w}")
+    ax.set_xlabel("iteration")
+    ax.set_ylabel("texture loss")
+    ax.legend(loc="upper right")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    plt.close(fig)
+    write_atomic(directory / "loss.png", lambda fh: fh.write(buf.getvalue()))
+

