@@ -23,6 +23,8 @@ COMMANDS = (
     "morphogen.cli.runs_cmd",
     "morphogen.cli.mesh_cmd",
     "morphogen.cli.pipeline_cmd",
+    "morphogen.cli.train_cmd",
+    "morphogen.cli.fit_cmd",
 )
 """Modules that provide sub-commands, in the order ``--help`` lists them."""
 
