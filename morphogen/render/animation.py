@@ -9,8 +9,6 @@ to a temporary file in the target directory and is renamed into place only when 
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import imageio.v2 as iio2
@@ -18,7 +16,7 @@ import imageio.v3 as iio
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.io import ensure_writable_dir, write_atomic
+from morphogen.io import atomic_path, ensure_writable_dir, write_atomic
 
 ANIMATION_FORMATS = (".gif", ".mp4")
 """File extensions :func:`write_animation` understands."""
@@ -91,26 +89,19 @@ def write_mp4(
     _ffmpeg()
     path = Path(path)
     ensure_writable_dir(path.parent)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".mp4")
-    os.close(fd)
-    try:
-        with iio2.get_writer(
-            tmp,
-            format="FFMPEG",
-            mode="I",
-            fps=fps,
-            codec="libx264",
-            pixelformat="yuv420p",
-            quality=quality,
-            macro_block_size=1,
-            ffmpeg_log_level="error",
-        ) as writer:
-            for frame in frames:
-                writer.append_data(frame)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path, suffix=".mp4") as tmp, iio2.get_writer(
+        tmp,
+        format="FFMPEG",
+        mode="I",
+        fps=fps,
+        codec="libx264",
+        pixelformat="yuv420p",
+        quality=quality,
+        macro_block_size=1,
+        ffmpeg_log_level="error",
+    ) as writer:
+        for frame in frames:
+            writer.append_data(frame)
     return path
 
 
