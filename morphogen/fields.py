@@ -1,10 +1,10 @@
 """Parameter values and parameter fields.
 
 Any model parameter may be a number, an array broadcastable to the domain's spatial shape (a
-prepattern), or an expression of ``x``, ``y``, ``z`` (coordinates in [0, 1] on grids) and of
-the model's other scalar parameters, e.g. a Pearson-style map ``F = "0.01 + 0.06*x"``,
-``k = "0.045 + 0.025*y"``. Expressions go through the safe compiler
-(:mod:`morphogen.models.expr`), never ``eval``.
+prepattern; on the command line a ``.npy`` file), or an expression of ``x``, ``y``, ``z``
+(coordinates in [0, 1] on grids) and of the model's other scalar parameters, e.g. a
+Pearson-style map ``F = "0.01 + 0.06*x"``, ``k = "0.045 + 0.025*y"``. Expressions go through the
+safe compiler (:mod:`morphogen.models.expr`), never ``eval``.
 """
 
 from __future__ import annotations
@@ -41,7 +41,9 @@ def resolve_params(model: Model, domain: Any, values: Mapping[str, Any]) -> dict
     scalars = {k: float(v) for k, v in values.items() if _is_number(v)}
     out: dict[str, np.ndarray] = {}
     for name, value in values.items():
-        if isinstance(value, str):
+        if isinstance(value, str) and value.lower().endswith(".npy"):
+            arr = _field_from_file(name, value, domain)
+        elif isinstance(value, str):
             arr = _field_from_expression(name, value, domain, scalars)
         else:
             arr = np.asarray(value, dtype=np.float32)
@@ -65,6 +67,20 @@ def _fits(shape: tuple[int, ...], spatial: tuple[int, ...]) -> bool:
         return np.broadcast_shapes(shape, tuple(spatial)) == tuple(spatial)
     except ValueError:
         return False
+
+
+def _field_from_file(name: str, path: str, domain: Any) -> np.ndarray:
+    """A prepattern saved with ``numpy.save``: an array broadcastable to the domain."""
+    try:
+        arr = np.asarray(np.load(path, allow_pickle=False), dtype=np.float32)
+    except (OSError, ValueError) as exc:
+        raise MorphogenError(f"parameter {name}: cannot read {path}: {exc}") from None
+    if not _fits(arr.shape, domain.spatial_shape):
+        raise MorphogenError(
+            f"parameter {name}: {path} has shape {arr.shape}, the domain needs "
+            f"{tuple(domain.spatial_shape)}"
+        )
+    return arr
 
 
 def _field_from_expression(

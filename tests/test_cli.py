@@ -203,3 +203,17 @@ def test_mesh_run_takes_species_and_parameter_fields_from_the_ply(tmp_path):
     assert resolved["F"] == {"field": [n * n], "min": 0.0, "max": 0.0}
     assert resolved["k"] == pytest.approx(0.06)
     assert (out / "out.ply").is_file()
+
+
+def test_parameter_field_from_npy_file(tmp_path):
+    field = np.linspace(0.02, 0.06, 20, dtype=np.float32)[None, :].repeat(10, axis=0)
+    np.save(tmp_path / "F.npy", field)
+    out = tmp_path / "o"
+    assert main(["simulate", "gray-scott", "--size", "10x20", "--steps", "3",
+                 "-p", f"F={tmp_path / 'F.npy'}", "--out", str(out), "--quiet"]) == 0
+    resolved = json.loads((out / "run.json").read_text())["resolved"]["params"]["F"]
+    assert resolved["field"] == [10, 20] and resolved["min"] == pytest.approx(0.02)
+    np.save(tmp_path / "bad.npy", np.zeros((3, 3)))
+    result = run_cli("simulate", "gray-scott", "--size", "10x20", "-p",
+                     f"F={tmp_path / 'bad.npy'}", "--out", str(tmp_path / "o2"))
+    assert result.returncode == 2 and "the domain needs" in result.stderr
