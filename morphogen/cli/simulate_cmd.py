@@ -38,7 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="option of the initial condition, e.g. count=20 (repeatable)")
     p.add_argument("--seed", type=int, default=None, help="random seed")
     p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE",
-                   help="parameter value or expression of x, y, z (repeatable)")
+                   help="parameter: a number, an expression of x, y, z, or a .npy field "
+                   "(repeatable)")
     p.add_argument("--preset", help="named parameter preset of the model")
     p.add_argument("--noise", metavar="AMP[:KIND[:SPECIES]]",
                    help="additive or multiplicative noise, e.g. 0.01:multiplicative:u")
