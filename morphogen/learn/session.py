@@ -45,8 +45,6 @@ from morphogen.progress import ProgressBar
 
 CHECKPOINT = "checkpoint.npz"
 MODEL = "model.npz"
-SAMPLE_GROWTH_STEPS = 1000
-"""Steps the fresh seeds in sample images are grown for."""
 
 
 @dataclass
@@ -210,7 +208,7 @@ def write_samples(directory: str | Path, run: Run, loss: TextureLoss) -> Path:
     from morphogen.render import write_png
 
     config = run.config
-    grown = grow_samples(config, run.state.weights, 4, SAMPLE_GROWTH_STEPS, run.iteration)
+    grown = grow_samples(config, run.state.weights, 4, config.sample_steps, run.iteration)
     pool = run.state.pool[:4]
     target = to_uint8(_fit(run.target, config.size))
     rows = []

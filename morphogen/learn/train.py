@@ -37,7 +37,7 @@ from morphogen.learn.rollout import rollout
 from morphogen.learn.seeds import seed_batch, seed_state
 from morphogen.learn.textures import state_to_rgb
 from morphogen.models.model import Array, Model
-from morphogen.models.neural import NeuralConfig, init_weights, neural_model, trainable_names
+from morphogen.models.neural import NeuralConfig, init_weights, neural_model
 from morphogen.steppers import make_step
 
 
@@ -66,6 +66,7 @@ class TrainConfig:
         chunk: steps per rematerialised rollout chunk.
         stencil: Laplacian stencil of the training grid (9: isotropic leading error).
         checkpoint_every, sample_every: how often to write a checkpoint and sample images.
+        sample_steps: steps the fresh seeds of sample images are grown for.
         seed: random seed of the run.
     """
 
@@ -76,10 +77,10 @@ class TrainConfig:
     batch_size: int = 4
     min_steps: int = 32
     max_steps: int = 64
-    iterations: int = 400
+    iterations: int = 500
     seed_every: int = 32
-    learning_rate: float = 1e-3
-    decay_at: tuple[int, ...] = (200, 320)
+    learning_rate: float = 2e-3
+    decay_at: tuple[int, ...] = (300, 450)
     decay: float = 0.2
     n_rot: int = 8
     features: str = "random"
@@ -91,6 +92,7 @@ class TrainConfig:
     stencil: int = 9
     checkpoint_every: int = 50
     sample_every: int = 100
+    sample_steps: int = 1000
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -217,16 +219,11 @@ def overflow_penalty(x: Array, limit: float) -> Array:
     return jnp.sum(excess) / x.shape[0]
 
 
-def make_train_step(config: TrainConfig) -> Callable[[TrainState, TextureLoss], tuple]:
-    """The jitted iteration ``(state, loss) -> (state, metrics)`` of Algorithm 1.
-
-    ``metrics`` holds ``loss`` (the texture loss, batch mean), ``overflow`` and ``steps``
-    (this iteration's rollout length).
-    """
-    model = template_model(config)
-    step = make_step(model, training_grid(config))
-    opt = optimizer(config)
-    shape = (config.size, config.size)
+def make_objective(config: TrainConfig) -> Callable:
+    """The training objective ``(weights, x, n_steps, loss) -> (value, (x_out, texture,
+    overflow))``: grow the batch ``x`` ``(B, n, S, S)`` for ``n_steps`` steps, then
+    ``value = mean texture loss + overflow_weight * overflow penalty``."""
+    step = make_step(template_model(config), training_grid(config))
 
     def objective(weights, x, n_steps, loss: TextureLoss):
         p = {**weights, "r": 1.0, "d": 1.0}
@@ -239,6 +236,21 @@ def make_train_step(config: TrainConfig) -> Callable[[TrainState, TextureLoss], 
         texture = jnp.mean(loss(state_to_rgb(x)))
         over = overflow_penalty(x, config.overflow_limit)
         return texture + config.overflow_weight * over, (x, texture, over)
+
+    return objective
+
+
+@lru_cache(maxsize=8)
+def make_train_step(config: TrainConfig) -> Callable[[TrainState, TextureLoss], tuple]:
+    """The jitted iteration ``(state, loss) -> (state, metrics)`` of Algorithm 1 (one per
+    configuration and process, so a resumed run does not compile again).
+
+    ``metrics`` holds ``loss`` (the texture loss, batch mean), ``overflow`` and ``steps``
+    (this iteration's rollout length). The state's buffers are donated: use the returned one.
+    """
+    objective = make_objective(config)
+    opt = optimizer(config)
+    shape = (config.size, config.size)
 
     def train_step(state: TrainState, loss: TextureLoss):
         key = jax.random.fold_in(state.key, state.iteration)
@@ -283,7 +295,3 @@ def _grower(config: TrainConfig, count: int, steps: int) -> Callable:
 
     return jax.jit(grow)
 
-
-def trainable(config: TrainConfig) -> tuple[str, ...]:
-    """Names of the trained arrays."""
-    return trainable_names(config.neural)

@@ -58,7 +58,6 @@ Laplacian (like the neural-CA kernel ``[[1, 2, 1], [2, -12, 2], [1, 2, 1]] / 16`
 channel (``c = 1``) is stable at ``r = d = dt = 1``: the 9-point stencil's spectral radius is
 ``16/3``, times ``1/4`` gives ``4/3 < 2``."""
 
-WEIGHT_NAMES = ("W0", "b0", "W1")
 FORMAT = "morphogen-neural-rd"
 FORMAT_VERSION = 1
 
@@ -137,11 +136,6 @@ def init_weights(config: NeuralConfig, key: Array) -> dict[str, np.ndarray]:
         c = fixed_diffusion(n).astype(np.float64)
         weights["c_hat"] = np.log(c / (1.0 - np.minimum(c, 1.0 - 1e-3))).astype(np.float32)
     return weights
-
-
-def trainable_names(config: NeuralConfig) -> tuple[str, ...]:
-    """Names of the parameters training updates."""
-    return WEIGHT_NAMES + (("c_hat",) if config.learn_diffusion else ())
 
 
 def neural_model(
