@@ -9,7 +9,7 @@ from pathlib import Path
 from morphogen.cli import options
 from morphogen.errors import MorphogenError
 from morphogen.io import ensure_writable_dir
-from morphogen.learn.features import EXTRACTORS
+from morphogen.learn.features import EXTRACTORS, make_extractor
 from morphogen.learn.session import MODEL, load_checkpoint, new_run, resolve_features, train
 from morphogen.learn.textures import SYNTHETIC, load_texture, synthetic_texture
 from morphogen.learn.train import PRESETS, preset
@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
                     else args.target).stem
         directory = Path(args.out or Path("out") / "train" / name)
         target = target_image(args.target, config.size)
-        resolve_features(config)
+        make_extractor(resolve_features(config), config.vgg_weights)  # fail before any output
         state = new_run(config, target, args.target)
     ensure_writable_dir(directory)
     total = args.iterations or state.config.iterations

@@ -285,7 +285,3 @@ def load_neural_model(path: str | Path) -> Model:
     description = f"neural RD trained on {Path(target).name}" if target else ""
     return neural_model(config, weights, name=Path(path).stem, description=description)
 
-
-def is_neural_file(path: str | Path) -> bool:
-    """Whether ``path`` names a neural model file (by its ``.npz`` suffix)."""
-    return str(path).lower().endswith(".npz")

@@ -21,7 +21,7 @@ not the colour map the target image was drawn with.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple
 
 import jax
@@ -84,8 +84,7 @@ class GradientEvaluator:
         if len(problem.size) != 2:
             raise MorphogenError("gradient fitting compares images: use a 2D grid (--size HxW)")
         self.problem = problem
-        self.base = Evaluator(Problem(**{**problem.__dict__, "fitness": "dirichlet",
-                                         "target": None}))
+        self.base = Evaluator(replace(problem, fitness="dirichlet", target=None))
         self.loss: TextureLoss = texture_loss(target_field_image(problem.target),
                                               make_extractor(features), n_rot)
         self._value_and_grad = self._compile(chunk)
