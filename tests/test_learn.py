@@ -99,8 +99,8 @@ def test_texture_loss_prefers_the_target_texture():
     loss = texture_loss(dots, RandomFeatures(), 8)
     grey = np.full_like(dots, 0.5)
     values = np.asarray(loss(jnp.asarray(np.stack([dots, stripes, grey]))))
-    assert 0.7 < values[2] <= 1.0  # the unit: a blank grey canvas (best orientation)
-    assert values[0] < 0.1 and values[1] > 1.0
+    assert values[0] < 0.1
+    assert values[1] > 10 * values[0] and values[2] > 10 * values[0]
 
 
 def test_seed_states_are_periodic_gaussian_blobs():
@@ -132,7 +132,6 @@ def test_short_training_halves_the_loss():
         return float(jnp.mean(loss(state_to_rgb(grown))))
 
     before = grown_loss(run.state.weights)
-    assert before == pytest.approx(1.0, abs=0.3)  # near a blank canvas
     run = train(run, None)
     after = grown_loss(run.state.weights)
     assert after < 0.5 * before, (before, after)

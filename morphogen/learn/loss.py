@@ -7,16 +7,13 @@ the *best matching* orientation:
 .. math::
 
     L(x) = \\min_{k} \\frac{1}{L}\\sum_{l=1}^{L}
-        \\frac{\\overline{(D_l(x) - D_l(T_k))^2}}{\\overline{(D_l(G) - D_l(T))^2}}
+        \\frac{\\overline{(D_l(x) - D_l(T_k))^2}}{\\overline{D_l(T)^2}}
 
 where ``D_l`` is descriptor ``l`` of the extractor (a Gram matrix, a spectrum, ...) and the bar
-a mean over its entries. Each descriptor is measured in units of how far a blank grey image
-``G`` is from the target (the denominator, averaged over all rotations so that it does not depend
-on how the target is oriented): levels weigh alike, and the loss reads the same for any target
-and extractor: about ``1`` for a blank canvas (a little less, as its best-matching orientation
-counts) and ``0`` for a perfect match. An isotropic RD system
-cannot choose the target's orientation, so it is judged against whichever orientation it
-produced.
+a mean over its entries: each descriptor's error is relative to its own size (the denominator
+averaged over all rotations, so that it does not depend on how the target is oriented), so that
+levels weigh alike. An isotropic RD system cannot choose the target's orientation, so it is
+judged against whichever orientation it produced.
 """
 
 from __future__ import annotations
@@ -40,8 +37,7 @@ class TextureLoss:
     Attributes:
         weights: the extractor's weights.
         targets: per descriptor, the rotated targets' values, shape ``(N_rot, ...)``.
-        scales: per descriptor, the normaliser ``mean((D_l(G) - D_l(T))^2)`` over all
-            rotations, ``G`` a blank grey image (scalar).
+        scales: per descriptor, the normaliser ``mean(D_l(T)^2)`` over all rotations (scalar).
         extractor: the extractor (static).
     """
 
@@ -76,9 +72,6 @@ def texture_loss(target: np.ndarray, extractor: Any, n_rot: int = 8) -> TextureL
     """
     weights = extractor.init()
     crops = jnp.asarray(rotated_crops(np.asarray(target, np.float32), n_rot))
-    describe = jax.jit(extractor.apply, static_argnums=2)
-    desc = describe(weights, crops, False)
-    blank = describe(weights, jnp.full((1, *crops.shape[1:]), 0.5, crops.dtype), True)
-    scales = [jnp.maximum(jnp.mean((d - b) ** 2), 1e-12)
-              for d, b in zip(desc, blank, strict=True)]
+    desc = jax.jit(extractor.apply, static_argnums=2)(weights, crops, False)
+    scales = [jnp.maximum(jnp.mean(d * d), 1e-12) for d in desc]
     return TextureLoss(weights=weights, targets=list(desc), scales=scales, extractor=extractor)
