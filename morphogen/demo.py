@@ -101,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     items.insert(0, growth_animation(out, args.size))
     print("atlas:", flush=True)
     items.insert(0, fk_atlas(out, args.tiles, 64))
-    write_gallery(out, "morphogen demo gallery", items)
+    write_gallery(out, "morphogen demo gallery", items, wide=("gray-scott-atlas.png",))
     print(f"wrote {out}/index.html in {time.perf_counter() - start:.0f} s")
     return 0
 
