@@ -103,7 +103,7 @@ def compute_atlas(
     u0 = make_initial(init or model.init, model, domain, sample, seed=seed)
     u0 = np.broadcast_to(u0, (ny * nx, *u0.shape))
     if not unsafe:
-        check_stability(model, domain, batch, dt, scheme)
+        check_stability(model, domain, batch, dt, scheme, batched=True)
     sol = simulate_batch(model, domain, u0, batch, steps=steps, dt=dt, seed=seed, scheme=scheme,
                          progress=progress, unsafe=True, **options)
     shape = (ny, nx)

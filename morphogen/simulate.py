@@ -176,7 +176,7 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
         raise MorphogenError(f"initial state has shape {got}, expected {expected}")
     p = {k: jnp.asarray(v, dtype) for k, v in params.items()}
     if not unsafe:
-        check_stability(model, domain, p, dt, scheme)
+        check_stability(model, domain, p, dt, scheme, batched=batched)
     if isinstance(clamp, str):
         clamp = model.clamp
     step = _cached_step(model, domain, scheme, noise, tuple(clamp) if clamp else None)

@@ -122,17 +122,24 @@ def _noise_mask(model: Model, noise: Noise | None) -> np.ndarray:
     return mask
 
 
-def max_stable_dt(model: Model, domain: Any, params: Params, scheme: str = "euler") -> float:
+def max_stable_dt(
+    model: Model, domain: Any, params: Params, scheme: str = "euler", *, batched: bool = False
+) -> float:
     """Largest stable explicit ``dt`` for the diffusion part.
 
     For the 5-point stencil and Euler this is ``dt <= dx^2 / (2 * dims * D_max)``; in general
     ``dt <= c / (rho(L) * D_max)`` with ``rho(L)`` the spectral radius of the discrete Laplacian
-    and ``c`` the stability interval of the scheme (2 for Euler, 2.785 for RK4). Anisotropic
-    tensors use their largest eigenvalue
+    and ``c`` the stability interval of the scheme (2 for Euler, 2.785 for RK4); with
+    ``batched`` every parameter has a leading batch axis and the bound is over all members.
+    Anisotropic tensors use their largest eigenvalue
     ``max((D_xx + D_yy) / 2 + sqrt(((D_xx - D_yy) / 2)^2 + D_xy^2))``.
     """
     coords = {**domain.coords, "t": 0.0}
-    coeffs = model.diffusion({k: np.asarray(v) for k, v in params.items()}, coords)
+    p = {k: jnp.asarray(v) for k, v in params.items()}
+    if batched:
+        coeffs = jax.vmap(lambda q: tuple(model.diffusion(q, coords)))(p)
+    else:
+        coeffs = model.diffusion(p, coords)
     d_max = max(_coefficient_bound(d) for d in coeffs)
     if d_max <= 0:
         return float("inf")
@@ -147,10 +154,11 @@ def _coefficient_bound(d: Any) -> float:
 
 
 def check_stability(
-    model: Model, domain: Any, params: Params, dt: float, scheme: str = "euler"
+    model: Model, domain: Any, params: Params, dt: float, scheme: str = "euler", *,
+    batched: bool = False,
 ) -> float:
     """Raise :class:`UnstableTimeStepError` if ``dt`` exceeds :func:`max_stable_dt`."""
-    dt_max = max_stable_dt(model, domain, params, scheme)
+    dt_max = max_stable_dt(model, domain, params, scheme, batched=batched)
     if dt > dt_max:
         raise UnstableTimeStepError(dt, dt_max, scheme)
     return dt_max
