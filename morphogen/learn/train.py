@@ -63,7 +63,10 @@ class TrainConfig:
         overflow_weight: weight of :func:`overflow_penalty`, which keeps states within
             ``[-overflow_limit, overflow_limit]`` (not in the paper; 0 disables it).
         overflow_limit: the bound above.
-        chunk: steps per rematerialised rollout chunk.
+        chunk: steps per rematerialised rollout chunk. Memory holds ``max_steps / chunk``
+            states plus one chunk's intermediate values; 1 (every step rematerialised, only the
+            states kept: 50 MB for the cpu preset, 0.8 GB for the paper's) measured fastest on
+            a CPU, 1.7 times faster than 8.
         stencil: Laplacian stencil of the training grid (9: isotropic leading error).
         checkpoint_every, sample_every: how often to write a checkpoint and sample images.
         sample_steps: steps the fresh seeds of sample images are grown for.
@@ -88,7 +91,7 @@ class TrainConfig:
     learn_diffusion: bool = False
     overflow_weight: float = 1.0
     overflow_limit: float = 1.0
-    chunk: int = 8
+    chunk: int = 1
     stencil: int = 9
     checkpoint_every: int = 50
     sample_every: int = 100
@@ -135,7 +138,7 @@ PRESETS: dict[str, TrainConfig] = {
     "paper": TrainConfig(
         channels=32, hidden=128, size=128, pool_size=1024, batch_size=4, min_steps=32,
         max_steps=96, iterations=20000, seed_every=32, learning_rate=1e-3,
-        decay_at=(1000, 10000), n_rot=8, features="auto", overflow_weight=1.0, chunk=16,
+        decay_at=(1000, 10000), n_rot=8, features="auto", overflow_weight=1.0,
         checkpoint_every=500, sample_every=1000,
     ),
 }
