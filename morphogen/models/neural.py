@@ -54,9 +54,9 @@ DIFFUSION_GROUPS = (1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0, 1.0)
 
 KERNEL_SCALE = 0.25
 """``K_lap = KERNEL_SCALE * Laplacian``: the 3x3 kernel of eq. 1 is a quarter of the unit-grid
-Laplacian (like the neural-CA kernel ``[[1, 2, 1], [2, -12, 2], [1, 2, 1]] / 16``), so the fastest
-channel (``c = 1``) is stable at ``r = d = dt = 1``: the 9-point stencil's spectral radius is
-``16/3``, times ``1/4`` gives ``4/3 < 2``."""
+Laplacian (as is ``[[1, 2, 1], [2, -12, 2], [1, 2, 1]] / 16``, which approximates a quarter of
+it), so the fastest channel (``c = 1``) is stable at ``r = d = dt = 1``: the 9-point stencil's
+spectral radius is ``16/3``, times ``1/4`` gives ``4/3 < 2``."""
 
 FORMAT = "morphogen-neural-rd"
 FORMAT_VERSION = 1
