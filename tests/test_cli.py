@@ -117,6 +117,7 @@ BAD_INPUTS = [
     (["simulate", "missing.toml"], "not found"),
     (["simulate", "--config", "nope.json"], "cannot read run file"),
     (["atlas", "gray-scott", "--x", "F=0.01:0.07", "--y", "k=0.04:0.07:3"], "NAME=START"),
+    (["evolve", "gray-scott", "--strategy", "gradient"], "--fitness target"),
     (["frobnicate"], "invalid choice"),
 ]
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -10,9 +12,12 @@ import pytest
 from morphogen.errors import MorphogenError
 from morphogen.render import write_png
 from morphogen.runfile import RunConfig, prepare, run_prepared
+from morphogen.search.archive import Archive
 from morphogen.search.evaluate import Problem
+from morphogen.search.executors import make_executor
 from morphogen.search.genes import Gene
 from morphogen.search.gradient import GradientAscent, GradientEvaluator, field_image, fit
+from morphogen.search.run import evolve, start
 from morphogen.search.strategy import Strategy
 from morphogen.simulate import integrate
 from morphogen.steppers import make_step
@@ -111,3 +116,30 @@ def test_gradient_strategy_needs_a_gradient_and_keeps_bounds():
     np.testing.assert_allclose(np.asarray(genomes), [[1.0, 0.0]] * 3)
     with pytest.raises(MorphogenError, match="start"):
         GradientAscent(population_size=2, start="nowhere")
+
+
+def test_evolve_runs_the_gradient_strategy_and_records_it(gray_scott_target, tmp_path):
+    """``evolve --strategy gradient``: the generation loop passes the executor's fitness
+    gradient to the strategy, the archive records each generation, and the loss falls."""
+    prob = problem(gray_scott_target)
+    archive = Archive(tmp_path / "index.sqlite")
+    spec = {"name": "gradient", "population": 2, "learning_rate": 0.03, "start": "centre"}
+    run_id, out = start(prob, spec, generations=6, archive=archive)
+    executor = make_executor("local", prob, gradient=True)
+    result = evolve(run_id, archive, executor, log=lambda s: None)
+    loss = -np.array([g["best"] for g in archive.generations(run_id)])
+    assert loss.shape == (6,)
+    assert loss[-1] < loss[0] / 1.5
+    assert result.best_fitness == pytest.approx(-loss.min())
+    assert (out / "best").is_dir()
+
+
+def test_gradient_strategy_refuses_runs_it_cannot_do(gray_scott_target, tmp_path):
+    prob = problem(gray_scott_target)
+    archive = Archive(tmp_path / "index.sqlite")
+    with pytest.raises(MorphogenError, match="fitness target"):
+        start(replace(prob, fitness="dirichlet", target=None),
+              {"name": "gradient", "population": 2}, generations=1, archive=archive)
+    with pytest.raises(MorphogenError, match="executor local"):
+        make_executor("ray", prob, gradient=True)
+    assert archive.runs() == []

@@ -19,9 +19,10 @@ from morphogen.search.run import STRATEGIES, evolve, resolve_run, start
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "evolve",
-        help="search model parameters with a genetic algorithm or CMA-ES",
+        help="search model parameters with a genetic algorithm, CMA-ES or gradient ascent",
         description="Evolve the parameters (genes) of a model toward a fitness: modified "
-        "Dirichlet energy, a person's choice, or a target image. Writes a run directory "
+        "Dirichlet energy, a person's choice, or a target image (the gradient strategy fits a "
+        "target image by gradient descent through the simulator). Writes a run directory "
         "(contact sheets, fitness plot, best individuals) and indexes it in the run archive.",
     )
     p.add_argument("model", nargs="?", metavar="MODEL_OR_FILE",
@@ -39,6 +40,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="GA: tournament size (default 0: fitness-proportionate selection)")
     p.add_argument("--sigma-init", type=options.positive_float, default=0.25,
                    help="CMA-ES: initial step as a fraction of each gene's range")
+    p.add_argument("--learning-rate", type=options.positive_float, default=0.02,
+                   help="gradient: Adam step as a fraction of each gene's range")
     p.add_argument("--size", default="128x128", help="grid size: N, NxM or NxMxK")
     p.add_argument("--dx", type=options.positive_float, default=1.0, help="cell spacing")
     p.add_argument("--dt", type=options.positive_float, help="time step (default: the model's)")
@@ -99,8 +102,10 @@ def strategy_from_args(args: argparse.Namespace) -> dict:
     spec = {"name": args.strategy, "population": args.population}
     if args.strategy == "ga":
         spec.update(elitism=args.elitism, tournament=args.tournament)
-    else:
+    elif args.strategy == "cmaes":
         spec["sigma_init"] = args.sigma_init
+    else:
+        spec["learning_rate"] = args.learning_rate
     return spec
 
 
@@ -115,12 +120,19 @@ def run(args: argparse.Namespace) -> int:
     options_for = ray_options if args.executor == "ray" else {}
     if args.resume:
         run_id, archive = resolve_run(args.resume, args.archive)
-        problem = Problem.from_dict(archive.run(run_id)["config"]["problem"])
-        executor = make_executor(args.executor, problem, **options_for)
+        config = archive.run(run_id)["config"]
+        problem = Problem.from_dict(config["problem"])
+        gradient = STRATEGIES[config["strategy"]["name"]].needs_gradient
+        executor = make_executor(args.executor, problem, gradient=gradient, **options_for)
     else:
         problem = problem_from_args(args)
         strategy = strategy_from_args(args)
-        executor = make_executor(args.executor, problem, **options_for)  # validates first
+        gradient = STRATEGIES[strategy["name"]].needs_gradient
+        if gradient and problem.fitness != "target":
+            raise MorphogenError("--strategy gradient fits a target image: add --fitness target "
+                                 "--target IMAGE")
+        executor = make_executor(args.executor, problem, gradient=gradient,
+                                 **options_for)  # validates first
         archive = Archive(args.archive)
         run_id, _ = start(problem, strategy, generations=args.generations, seed=args.seed,
                           out=args.out, archive=archive, cmap=args.cmap)

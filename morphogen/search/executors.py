@@ -113,8 +113,50 @@ class RayExecutor:
         return fitness, {"valid": valid, "fields": fields}
 
 
-def make_executor(name: str, problem: Problem, **options: Any) -> LocalExecutor | RayExecutor:
-    """An executor by name (:data:`EXECUTORS`); ``options`` go to :class:`RayExecutor`."""
+class GradientExecutor:
+    """The whole population in this process, with the gradient of each fitness: what the
+    gradient strategy (:class:`~morphogen.search.gradient.GradientAscent`) needs.
+
+    One differentiable batched simulation per generation (``metrics["gradient"]``, shape
+    ``(P, G)``); progress is reported once it is done.
+    """
+
+    name = "local"
+    unit = "individual"
+
+    def __init__(self, problem: Problem):
+        from morphogen.search.gradient import GradientEvaluator
+
+        self.problem = problem
+        self.evaluator = GradientEvaluator(problem)
+
+    def total(self, population: int) -> int:
+        return population
+
+    def evaluate(self, genomes: np.ndarray, key: Any, update: Update | None = None,
+                 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        fitness, metrics = self.evaluator(genomes, key)
+        if update is not None:
+            update(len(genomes))
+        return fitness, metrics
+
+
+Executor = LocalExecutor | RayExecutor | GradientExecutor
+
+
+def make_executor(name: str, problem: Problem, *, gradient: bool = False,
+                  **options: Any) -> Executor:
+    """An executor by name (:data:`EXECUTORS`); ``options`` go to :class:`RayExecutor`.
+
+    ``gradient=True`` (for the gradient strategy) gives a :class:`GradientExecutor`, which runs
+    in this process only.
+    """
+    if gradient:
+        if name != "local":
+            raise MorphogenError(
+                "the gradient strategy runs in this process: use --executor local"
+            )
+        return GradientExecutor(problem)
     if name == "local":
         return LocalExecutor(problem)
     if name == "ray":

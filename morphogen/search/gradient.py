@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import Any, NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -169,6 +169,8 @@ class GradientAscent(Strategy):
             centre of the box, the rest spread around it by the genes' ``sigma``).
         beta1, beta2: Adam's moment decay rates.
     """
+
+    needs_gradient: ClassVar[bool] = True
 
     learning_rate: float = 0.02
     start: str = "uniform"

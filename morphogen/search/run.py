@@ -29,13 +29,19 @@ from morphogen.search import report
 from morphogen.search.archive import CONFIG, Archive, Generation, new_run_id
 from morphogen.search.cmaes import CMAES
 from morphogen.search.evaluate import Problem
-from morphogen.search.executors import LocalExecutor, RayExecutor
+from morphogen.search.executors import Executor
 from morphogen.search.fitness import human_fitness
 from morphogen.search.ga import GeneticAlgorithm
+from morphogen.search.gradient import GradientAscent
 from morphogen.search.strategy import Strategy, state_from_arrays, state_to_arrays
 
-STRATEGIES: dict[str, Callable[..., Strategy]] = {"ga": GeneticAlgorithm, "cmaes": CMAES}
-"""Strategy classes by command-line name; options are their dataclass fields."""
+STRATEGIES: dict[str, type[Strategy]] = {
+    "ga": GeneticAlgorithm,
+    "cmaes": CMAES,
+    "gradient": GradientAscent,
+}
+"""Strategy classes by command-line name; options are their dataclass fields. ``gradient``
+needs ``fitness="target"`` and a :class:`~morphogen.search.executors.GradientExecutor`."""
 
 BEST_KEPT = 3
 """Number of best individuals written to ``best/``."""
@@ -84,7 +90,11 @@ def start(
     """
     if generations < 1:
         raise MorphogenError(f"generations must be >= 1, got {generations}")
-    make_strategy(strategy)
+    if make_strategy(strategy).needs_gradient and problem.fitness != "target":
+        raise MorphogenError(
+            f"the {strategy['name']} strategy fits a target image: use --fitness target "
+            "--target IMAGE"
+        )
     archive = archive or Archive()
     run_id = new_run_id(Path(problem.model).stem)
     directory = Path(out) if out else archive.path.parent / run_id
@@ -111,7 +121,7 @@ def start(
 def evolve(
     run_id: str,
     archive: Archive,
-    executor: LocalExecutor | RayExecutor,
+    executor: Executor,
     *,
     select: Select | None = None,
     progress: bool = False,
@@ -162,7 +172,8 @@ def evolve(
             chosen = select(str(directory / sheet), len(genomes))
             fitness = human_fitness(chosen, len(genomes)).astype(np.float32)
         sheet = report.write_sheet(directory, gen, rgb, fitness, title)
-        state, m = strategy.tell(genomes, fitness, state)
+        told = {"gradient": metrics.get("gradient")} if strategy.needs_gradient else {}
+        state, m = strategy.tell(genomes, fitness, state, **told)
         seconds = time.perf_counter() - t0
         archive.record_generation(run_id, Generation(
             gen=gen, genomes=genomes, fitness=fitness, valid=metrics["valid"], images=images,

@@ -38,7 +38,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any, NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -83,6 +83,9 @@ class Strategy:
     """
 
     population_size: int
+
+    needs_gradient: ClassVar[bool] = False
+    """Whether ``tell`` needs ``gradient=d fitness / d genome`` (from a gradient evaluator)."""
 
     def __post_init__(self) -> None:
         if int(self.population_size) < 2:

@@ -34,6 +34,8 @@ from morphogen.web.live import INITIAL_KINDS
 router = APIRouter(prefix="/api/evolve")
 
 FITNESS = ("user", "dirichlet")
+SEARCH_STRATEGIES = tuple(name for name, cls in STRATEGIES.items() if not cls.needs_gradient)
+"""The web app's strategies: those that need no fitness gradient (it has no target images)."""
 MAX_GENERATIONS = 200
 MAX_GENES = 128
 
@@ -102,7 +104,7 @@ def build(body: dict[str, Any], limits: Limits) -> tuple[Problem, dict[str, Any]
     steps = integer(body.get("steps", d["steps"]), "steps", 1, 200_000)
     check_budget(size * size, steps, population, limits)
     fitness = choice(body.get("fitness", "user"), "fitness", FITNESS)
-    strategy = choice(body.get("strategy", "ga"), "strategy", tuple(STRATEGIES))
+    strategy = choice(body.get("strategy", "ga"), "strategy", SEARCH_STRATEGIES)
     init = choice(body.get("init", d["init"]), "initial condition", INITIAL_KINDS)
     seed = integer(body.get("seed", 0), "seed", 0, 2**31 - 1)
     problem = Problem(
