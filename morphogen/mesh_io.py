@@ -195,6 +195,7 @@ def write_mesh_outputs(
     species: str | None = None,
     view: Any = "oblique",
     size: tuple[int, int] = (800, 800),
+    rgb: np.ndarray | None = None,
 ) -> list[Path]:
     """Write ``NAME.ply`` (vertex colours of the display species through ``cmap``, every
     species as a named property, the mesh's fields) and ``NAME.png`` (a rendered view).
@@ -204,6 +205,7 @@ def write_mesh_outputs(
         cmap: a colour map name or ramp (see :func:`morphogen.render.colourise`), or a callable
             ``values (V,) -> (V, 3) uint8`` such as a step transfer function.
         species: the species shown (default: the model's display species).
+        rgb: vertex colours ``(V, 3)`` uint8 to use instead (e.g. the model's own colours).
     """
     from morphogen.render.colour import colourise
     from morphogen.render.images import write_png
@@ -215,8 +217,12 @@ def write_mesh_outputs(
                              f"({len(model.species)}, {mesh.n_vertices})")
     out = ensure_writable_dir(out_dir)
     shown = state[model.species_index(species or model.display_species)]
-    named = isinstance(cmap, str | Colormap)
-    colours = colourise(shown, cmap) if named else np.asarray(cmap(shown), np.uint8)
+    if rgb is not None:
+        colours = np.asarray(rgb, np.uint8)
+    elif isinstance(cmap, str | Colormap):
+        colours = colourise(shown, cmap)
+    else:
+        colours = np.asarray(cmap(shown), np.uint8)
     species_fields = {s: state[i] for i, s in enumerate(model.species)}
     ply = save_ply(out / f"{name}.ply", mesh, colours=colours, fields=species_fields)
     image = render_mesh(mesh.vertices, mesh.faces, colours, view=view, size=size)

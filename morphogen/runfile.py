@@ -58,7 +58,7 @@ class RunConfig:
     clamp: Any = "model"
     every: int | None = None
     species: str | None = None
-    cmap: str = "viridis"
+    cmap: str | None = None
     vmin: float | None = None
     vmax: float | None = None
     threshold: float | None = None

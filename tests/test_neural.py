@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import imageio.v3 as iio
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from morphogen.cli.main import main
 from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
 from morphogen.models.neural import (
@@ -175,3 +177,26 @@ def test_weights_are_runtime_parameters_with_gradients():
 
     g = jax.grad(loss)(jnp.asarray(w_a["W1"]))
     assert g.shape == (8, 4) and float(jnp.abs(g).max()) > 0
+
+
+@pytest.mark.parametrize("size", ["24x20", "6x12x10"])
+def test_simulate_command_draws_the_rgb_channels(tmp_path, size):
+    """``morphogen simulate rule.npz`` shows x0, x1, x2 as red, green, blue (x + 0.5) in
+    ``final.png`` (the mid-plane of a volume, plus a montage of slices); ``--species`` or
+    ``--cmap`` draws one channel through a colour map instead."""
+    config = NeuralConfig(4, 8)
+    path = save_neural_model(tmp_path / "rule.npz", config, random_weights(config, 2, 0.3))
+    out = tmp_path / "run"
+    assert main(["simulate", str(path), "--size", size, "--steps", "20", "--out", str(out)]) == 0
+    state = np.load(out / "state.npz")
+    rgb = np.stack([state[f"x{i}"] for i in range(3)], axis=-1) + 0.5
+    if rgb.ndim == 4:
+        rgb = rgb[rgb.shape[0] // 2]
+        assert (out / "montage.png").is_file()
+    assert rgb.std() > 0.01
+    expected = np.clip(rgb * 255 + 0.5, 0, 255).astype(np.uint8)
+    np.testing.assert_array_equal(iio.imread(out / "final.png"), expected)
+    mapped = tmp_path / "mapped"
+    assert main(["simulate", str(path), "--size", size, "--steps", "20", "--species", "x1",
+                 "--out", str(mapped)]) == 0
+    assert not np.array_equal(iio.imread(mapped / "final.png"), expected)

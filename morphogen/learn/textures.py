@@ -17,6 +17,7 @@ from scipy import ndimage
 
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Array
+from morphogen.render.images import to_uint8 as to_uint8
 
 SYNTHETIC = ("stripes", "dots")
 """Names of the synthetic textures :func:`synthetic_texture` makes."""
@@ -28,11 +29,6 @@ def state_to_rgb(u: Array) -> Array:
     Not clipped, so the loss sees (and penalises) values outside ``[0, 1]``.
     """
     return jnp.moveaxis(u[..., :3, :, :], -3, -1) + 0.5
-
-
-def to_uint8(rgb: np.ndarray) -> np.ndarray:
-    """Float RGB ``(..., H, W, 3)`` to ``uint8``, clipped to ``[0, 1]``."""
-    return (np.clip(np.asarray(rgb, np.float64), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
 def load_texture(path: str | Path, size: int | None = None) -> np.ndarray:

@@ -68,6 +68,10 @@ class Model:
         init: suggested initial condition kind (see :mod:`morphogen.initial`).
         clamp: physical bounds the model itself declares (e.g. non-negative concentrations
             in Turk's formulation of Turing's model); used unless the caller overrides it.
+        colours: the model's own picture of a state, ``state (S, *spatial) -> float RGB
+            (*spatial, 3)`` in ``[0, 1]`` (e.g. a neural model's RGB channels); images use it
+            unless a species or colour map is asked for. ``None``: the display species through
+            a colour map.
     """
 
     name: str
@@ -86,6 +90,7 @@ class Model:
     t_end: float = 1000.0
     init: str = "noise"
     clamp: tuple[float, float] | None = None
+    colours: Callable[[np.ndarray], np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         if not self.species:

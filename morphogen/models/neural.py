@@ -195,7 +195,15 @@ def neural_model(
         dt=1.0,
         t_end=2000.0,
         init="blobs",
+        colours=rgb_channels,
     )
+
+
+def rgb_channels(state: np.ndarray) -> np.ndarray:
+    """The picture of a state: channels ``x0, x1, x2`` as red, green, blue, ``x[:3] + 0.5``
+    (the convention of the texture loss, :func:`morphogen.learn.textures.state_to_rgb`);
+    ``(n, *spatial)`` -> ``(*spatial, 3)`` on grids of any dimension and on meshes."""
+    return np.moveaxis(np.asarray(state)[:3], 0, -1) + 0.5
 
 
 def check_weights(config: NeuralConfig, weights: Mapping[str, Any]) -> dict[str, np.ndarray]:

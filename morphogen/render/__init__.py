@@ -26,6 +26,7 @@ from morphogen.render.images import mid_slice as mid_slice
 from morphogen.render.images import slice_indices as slice_indices
 from morphogen.render.images import slice_montage as slice_montage
 from morphogen.render.images import state_image as state_image
+from morphogen.render.images import to_uint8 as to_uint8
 from morphogen.render.images import upscale as upscale
 from morphogen.render.images import write_png as write_png
 from morphogen.render.mosaic import atlas_image as atlas_image

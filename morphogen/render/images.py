@@ -32,6 +32,12 @@ def check_image(rgb: np.ndarray) -> np.ndarray:
     return rgb
 
 
+def to_uint8(rgb: np.ndarray) -> np.ndarray:
+    """Float RGB ``(..., 3)`` in ``[0, 1]`` to ``uint8``, clipped (NaN shows black)."""
+    rgb = np.nan_to_num(np.asarray(rgb, np.float64), nan=0.0)
+    return (np.clip(rgb, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+
 def write_png(path: str | Path, rgb: np.ndarray) -> Path:
     """Write a uint8 image ``(H, W[, 3|4])`` to a PNG file atomically; returns the path.
 
