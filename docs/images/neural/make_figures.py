@@ -3,8 +3,8 @@
     python docs/images/neural/make_figures.py RUN_DIR [RUN_DIR ...]
 
 Each RUN_DIR is a ``morphogen train`` output directory; its name (``stripes``, ``dots``) names
-the figures. For every run: the model file, the target, runs from four seeds, the loss curve, the
-model at two grid resolutions, on a spatially varying ``r`` (seed 002 fig. 4), in a 3D volume
+the figures. For every run: the model file, the target, runs from four seeds, the stages of one
+run, the loss curve, the model at two grid resolutions, on a spatially varying ``r`` (seed 002 fig. 4), in a 3D volume
 (fig. 6) and on a flower mesh (fig. 5).
 """
 
@@ -46,6 +46,14 @@ def seeds_figure(name, model, target):
     tiles = [np.tile(target, (reps, reps, 1))[:size, :size], *runs]
     labels = ["target", *(f"seed {s}" for s in range(4))]
     write_png(HERE / f"{name}_seeds.png", mosaic(upscale(np.stack(tiles), 2), 5, labels=labels))
+
+
+def stages_figure(name, model):
+    """Seed 002 fig. 3: one run from seed 0 after 50, 200, 1000 and 5000 steps."""
+    steps = (50, 200, 1000, 5000)
+    tiles = np.stack([rgb(grow(model, (96, 96), n, 0)) for n in steps])
+    labels = [f"step {n}" for n in steps]
+    write_png(HERE / f"{name}_stages.png", mosaic(upscale(tiles, 2), 4, labels=labels))
 
 
 def resolution_figure(name, model):
@@ -109,7 +117,7 @@ def main(runs: list[str]) -> None:
         with np.load(run / "checkpoint.npz", allow_pickle=False) as data:
             target = to_uint8(data["target"])
         write_png(HERE / f"{name}_target.png", target)  # 64x64: usable as --target
-        for figure in (seeds_figure, resolution_figure, varying_r_figure, volume_figure,
+        for figure in (seeds_figure, stages_figure, resolution_figure, varying_r_figure, volume_figure,
                        mesh_figure):
             print(f"{name}: {figure.__name__}", flush=True)
             if figure is seeds_figure:
