@@ -4,8 +4,8 @@
 
 Each RUN_DIR is a ``morphogen train`` output directory; its name (``stripes``, ``dots``) names
 the figures. For every run: the model file, the target, runs from four seeds, the stages of one
-run, the loss curve, the model at two grid resolutions, on a spatially varying ``r`` (seed 002 fig. 4), in a 3D volume
-(fig. 6) and on a flower mesh (fig. 5).
+run, the loss curve and last sample image, the model at two grid resolutions, on a spatially
+varying ``r`` (seed 002 fig. 4), in a 3D volume (fig. 6) and on a flower mesh (fig. 5).
 """
 
 from __future__ import annotations
@@ -40,11 +40,14 @@ def grow(model, shape, steps, seed, dt=1.0, params=None, stencil=None):
 
 
 def seeds_figure(name, model, target):
-    runs = [rgb(grow(model, (96, 96), 2000, seed)) for seed in range(4)]
-    size = runs[0].shape[0]
+    """Four seeds on 96^2: after 300 steps (top row) and 2000 steps (bottom row)."""
+    size = 96
     reps = -(-size // target.shape[0])
-    tiles = [np.tile(target, (reps, reps, 1))[:size, :size], *runs]
-    labels = ["target", *(f"seed {s}" for s in range(4))]
+    tile = np.tile(target, (reps, reps, 1))[:size, :size]
+    tiles, labels = [], []
+    for steps in (300, 2000):
+        tiles += [tile, *(rgb(grow(model, (size, size), steps, seed)) for seed in range(4))]
+        labels += ["target", *(f"seed {s}, {steps} steps" for s in range(4))]
     write_png(HERE / f"{name}_seeds.png", mosaic(upscale(np.stack(tiles), 2), 5, labels=labels))
 
 
@@ -117,8 +120,10 @@ def main(runs: list[str]) -> None:
         with np.load(run / "checkpoint.npz", allow_pickle=False) as data:
             target = to_uint8(data["target"])
         write_png(HERE / f"{name}_target.png", target)  # 64x64: usable as --target
-        for figure in (seeds_figure, stages_figure, resolution_figure, varying_r_figure, volume_figure,
-                       mesh_figure):
+        shutil.copyfile(sorted((run / "samples").glob("iter_*.png"))[-1],
+                        HERE / f"{name}_samples.png")
+        for figure in (seeds_figure, stages_figure, resolution_figure, varying_r_figure,
+                       volume_figure, mesh_figure):
             print(f"{name}: {figure.__name__}", flush=True)
             if figure is seeds_figure:
                 figure(name, model, target)
