@@ -160,3 +160,14 @@ def test_presets():
     assert paper.decay_at == (1000, 10000) and paper.decay == 0.2
     assert paper.learning_rate == 1e-3 and paper.seed_every == 32
     assert preset("cpu", iterations=7).iterations == 7
+
+
+def test_a_new_run_records_the_extractor_auto_chose(monkeypatch):
+    from morphogen.learn import session, vgg
+
+    config = preset("cpu", features="auto", size=16, pool_size=4, iterations=1)
+    target = synthetic_texture("dots", 16)
+    monkeypatch.setattr(vgg, "find_vgg_weights", lambda: None)
+    assert session.new_run(config, target).config.features == "random"
+    monkeypatch.setattr(vgg, "find_vgg_weights", lambda: "weights.ckpt")
+    assert session.new_run(config, target).config.features == "vgg"

@@ -21,7 +21,7 @@ from __future__ import annotations
 import io
 import json
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import jax
@@ -79,7 +79,9 @@ def build_loss(config: TrainConfig, target: np.ndarray) -> TextureLoss:
 
 
 def new_run(config: TrainConfig, target: np.ndarray, target_name: str = "") -> Run:
-    """A fresh run at iteration 0."""
+    """A fresh run at iteration 0. ``features="auto"`` is resolved here, so the checkpoint
+    records the extractor used and a resumed run keeps it."""
+    config = replace(config, features=resolve_features(config))
     return Run(config, np.asarray(target, np.float32), init_state(config), [], target_name)
 
 
