@@ -128,9 +128,6 @@ def run(args: argparse.Namespace) -> int:
         problem = problem_from_args(args)
         strategy = strategy_from_args(args)
         gradient = STRATEGIES[strategy["name"]].needs_gradient
-        if gradient and problem.fitness != "target":
-            raise MorphogenError("--strategy gradient fits a target image: add --fitness target "
-                                 "--target IMAGE")
         executor = make_executor(args.executor, problem, gradient=gradient,
                                  **options_for)  # validates first
         archive = Archive(args.archive)

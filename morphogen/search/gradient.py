@@ -59,6 +59,14 @@ def target_field_image(path: str) -> np.ndarray:
     return np.asarray(field_image(jnp.asarray(lum)))
 
 
+def require_target(problem: Problem) -> None:
+    """Refuse a problem without a target image: gradient fitting has nothing else to fit."""
+    if problem.fitness != "target" or not problem.target:
+        raise MorphogenError(
+            "gradient fitting needs a target image: use --fitness target --target IMAGE"
+        )
+
+
 class GradientEvaluator:
     """``evaluate(genomes (P, G), key) -> (fitness (P,), metrics)`` with gradients.
 
@@ -79,8 +87,7 @@ class GradientEvaluator:
 
     def __init__(self, problem: Problem, *, features: str = "random", n_rot: int = 8,
                  chunk: int = 50):
-        if problem.fitness != "target" or not problem.target:
-            raise MorphogenError("gradient fitting needs a target image (--target IMAGE)")
+        require_target(problem)
         if len(problem.size) != 2:
             raise MorphogenError("gradient fitting compares images: use a 2D grid (--size HxW)")
         self.problem = problem

@@ -32,7 +32,7 @@ from morphogen.search.evaluate import Problem
 from morphogen.search.executors import Executor
 from morphogen.search.fitness import human_fitness
 from morphogen.search.ga import GeneticAlgorithm
-from morphogen.search.gradient import GradientAscent
+from morphogen.search.gradient import GradientAscent, require_target
 from morphogen.search.strategy import Strategy, state_from_arrays, state_to_arrays
 
 STRATEGIES: dict[str, type[Strategy]] = {
@@ -90,11 +90,8 @@ def start(
     """
     if generations < 1:
         raise MorphogenError(f"generations must be >= 1, got {generations}")
-    if make_strategy(strategy).needs_gradient and problem.fitness != "target":
-        raise MorphogenError(
-            f"the {strategy['name']} strategy fits a target image: use --fitness target "
-            "--target IMAGE"
-        )
+    if make_strategy(strategy).needs_gradient:
+        require_target(problem)
     archive = archive or Archive()
     run_id = new_run_id(Path(problem.model).stem)
     directory = Path(out) if out else archive.path.parent / run_id
