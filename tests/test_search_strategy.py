@@ -147,7 +147,8 @@ def test_whole_loop_runs_in_lax_scan_and_matches_the_python_loop():
     state = ga.init(KEY, genes)
     for k in keys:
         state, _ = body(state, k)
-    np.testing.assert_array_equal(np.asarray(final.best_genome), np.asarray(state.best_genome))
+    np.testing.assert_allclose(np.asarray(final.best_genome), np.asarray(state.best_genome),
+                               rtol=1e-6)  # scanned vs step-by-step: two programs
     assert np.all(np.diff(np.asarray(curve)) >= 0)  # best so far never decreases
     assert float(curve[-1]) > 0.97
 
