@@ -6,7 +6,7 @@ LOCK := requirements.lock
 # Installs take the exact versions the suite last passed with; `make upgrade` moves them on.
 CONSTRAINTS ?= -c $(LOCK)
 
-.PHONY: demo test bench lint clean serve lock upgrade
+.PHONY: demo test bench lint clean serve lock upgrade fuzz
 
 $(STAMP): pyproject.toml $(LOCK)
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -27,7 +27,7 @@ demo: $(STAMP)
 	$(BIN)/python -m morphogen.demo --out out/demo
 
 lint: $(STAMP)
-	$(BIN)/ruff check morphogen tests bench
+	$(BIN)/ruff check morphogen tests bench fuzz
 
 test: $(STAMP) lint
 	JAX_PLATFORMS=cpu $(BIN)/python -m pytest
@@ -37,6 +37,9 @@ serve: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m bench.run
+
+fuzz: $(STAMP)
+	$(BIN)/python -m fuzz.run --seconds $(or $(SECONDS),600)
 
 clean:
 	rm -rf out .pytest_cache

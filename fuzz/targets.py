@@ -1,0 +1,60 @@
+"""Coverage-guided fuzz targets (atheris / libFuzzer) for the parsers that read untrusted files.
+
+Each target takes the fuzzer's bytes and feeds them to one reader. The contract is the project's
+bad-input rule: the input loads, or the reader raises :class:`MorphogenError` (one line for the
+user). Any other exception, a hang (libFuzzer's ``-timeout``) or a memory blow-up
+(``-rss_limit_mb``) is a finding, and libFuzzer stops with the input saved as ``crash-*``.
+
+Run through ``python -m fuzz.run TARGET`` (``make fuzz`` runs every target for longer).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+import atheris
+
+with atheris.instrument_imports(include=["morphogen"]):
+    from morphogen.errors import MorphogenError
+    from morphogen.mesh_io import load_mesh
+    from morphogen.models.equations import parse_model
+
+_SCRATCH = Path(tempfile.mkdtemp(prefix="morphogen-fuzz-", dir="/dev/shm" if
+                                 os.path.isdir("/dev/shm") else None))
+
+
+def equations(data: bytes) -> None:
+    """Model-file text (any bytes, decoded as UTF-8 with replacement) through ``parse_model``."""
+    text = data.decode("utf-8", errors="replace")
+    try:
+        parse_model(text, name="fuzz")
+    except MorphogenError:
+        pass
+
+
+def ply(data: bytes) -> None:
+    """PLY bytes, written to a scratch file, through ``load_mesh`` (header, elements, mesh)."""
+    path = _SCRATCH / "input.ply"
+    path.write_bytes(data)
+    try:
+        load_mesh(path)
+    except MorphogenError:
+        pass
+
+
+TARGETS: dict[str, Callable[[bytes], None]] = {"equations": equations, "ply": ply}
+
+
+def main(argv: list[str]) -> None:
+    """``targets.py TARGET [libFuzzer flags...] CORPUS``: run one target under atheris."""
+    target = TARGETS[argv[1]]
+    atheris.Setup([argv[0], *argv[2:]], target)
+    atheris.Fuzz()
+
+
+if __name__ == "__main__":
+    main(sys.argv)
