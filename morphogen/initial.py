@@ -15,12 +15,16 @@ perturbs, moves towards the model's excited values ``e``. Kinds (:data:`INITIAL_
 - ``seeds``: ``count`` random cells (or mesh vertices) where ``species`` takes
   ``g + U(0, 1) (e - g)``; elsewhere ``g`` (Ringham et al. §4.9, *Phalaenopsis*: 5 000 seeds
   on about 88 000 vertices, so the default count is 5.7 % of the cells).
+- ``random``: every species of every cell drawn independently from ``U(low, high)``, default
+  ``[0, 1]`` (Skaggs §3.1: "a random uniform distribution over [0, 1]"; Richard et al.
+  §IV.4.1); it ignores ``g`` and ``e``.
 - ``image``: a picture's grey level ``I`` in [0, 1] gives ``g + I (e - g)`` (2D grids).
 - ``npz``: one array per species, by species name.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -68,7 +72,9 @@ def make_initial(
     rng = np.random.default_rng(seed)
     try:
         state = INITIAL_KINDS[kind](model, domain, g, e, rng, **opts)
-    except TypeError as exc:
+    except MorphogenError:
+        raise
+    except (TypeError, ValueError, OverflowError) as exc:
         raise MorphogenError(f"bad option for initial condition {kind!r}: {exc}") from None
     return np.ascontiguousarray(state, dtype=np.float32)
 
@@ -155,6 +161,15 @@ def _seeds(model, domain, g, e, rng, count: int | None = None, species: str | No
     return u
 
 
+@_kind("random")
+def _random(model, domain, g, e, rng, low: float = 0.0, high: float = 1.0):
+    low, high = float(low), float(high)
+    if not (np.isfinite(low) and np.isfinite(high) and low < high):
+        raise MorphogenError(f"random initial condition needs finite low < high, got "
+                             f"low={low}, high={high}")
+    return rng.uniform(low, high, (len(model.species), *domain.spatial_shape))
+
+
 @_kind("image")
 def _image(model, domain, g, e, rng, path: str | Path = ""):
     import imageio.v3 as iio
@@ -175,20 +190,44 @@ def _image(model, domain, g, e, rng, path: str | Path = ""):
 
 @_kind("npz")
 def _npz(model, domain, g, e, rng, path: str | Path = ""):
+    return load_state(path, model.species, tuple(domain.spatial_shape))
+
+
+def load_state(path: str | Path, species: tuple[str, ...],
+               shape: tuple[int, ...]) -> np.ndarray:
+    """A state file (``.npz``, one array per species) as float64 ``(S, *shape)``.
+
+    Only numeric, finite arrays of exactly ``shape`` are accepted; no pickles, and no member
+    larger on disk than such an array, so a hostile file cannot allocate more than the run.
+    """
+    import zipfile
+
+    limit = 16 * math.prod(shape) + 4096
     try:
-        data = np.load(path)
-    except (OSError, ValueError) as exc:
-        raise MorphogenError(f"cannot read {path}: {exc}") from None
-    missing = [s for s in model.species if s not in data.files]
-    if missing:
-        raise MorphogenError(
-            f"{path} lacks arrays for species {missing}; it has {sorted(data.files)}"
-        )
-    arrays = [np.asarray(data[s], np.float64) for s in model.species]
-    for s, a in zip(model.species, arrays, strict=True):
-        if a.shape != tuple(domain.spatial_shape):
+        data = np.load(path, allow_pickle=False)
+        if not isinstance(data, np.lib.npyio.NpzFile):
+            raise MorphogenError(f"{path} is a single array, not an .npz of named arrays")
+        with data:
+            missing = [s for s in species if s not in data.files]
+            if missing:
+                raise MorphogenError(
+                    f"{path} lacks arrays for species {missing}; it has {sorted(data.files)}"
+                )
+            for s in species:
+                if data.zip.getinfo(f"{s}.npy").file_size > limit:
+                    raise MorphogenError(f"{path}: array {s!r} is larger than the domain")
+            arrays = [data[s] for s in species]
+    except MorphogenError:
+        raise
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+        raise MorphogenError(f"cannot read {path} as a state file: {exc}") from None
+    for s, a in zip(species, arrays, strict=True):
+        if a.dtype.kind not in "biuf":
+            raise MorphogenError(f"{path}: array {s!r} holds {a.dtype} values, not numbers")
+        if a.shape != shape:
             raise MorphogenError(
-                f"{path}: array {s!r} has shape {a.shape}, the domain needs "
-                f"{tuple(domain.spatial_shape)}"
+                f"{path}: array {s!r} has shape {a.shape}, the domain needs {shape}"
             )
-    return np.stack(arrays)
+        if not np.isfinite(a).all():
+            raise MorphogenError(f"{path}: array {s!r} holds NaN or infinite values")
+    return np.stack([a.astype(np.float64) for a in arrays])

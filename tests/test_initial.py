@@ -8,6 +8,7 @@ import pytest
 
 from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
+from morphogen.flowers.planar import lattice_mesh
 from morphogen.initial import INITIAL_KINDS, make_initial
 from morphogen.models.library import get_model
 
@@ -64,3 +65,21 @@ def test_npz_and_image_files(tmp_path):
         make_initial(str(tmp_path / "bad.npz"), GS, GRID, P)
     with pytest.raises(MorphogenError, match="unknown initial"):
         make_initial("sprinkles", GS, GRID, P)
+
+
+@pytest.mark.parametrize("domain", [Grid((40, 50)), Grid((12, 10, 8)), lattice_mesh(12, 9)],
+                         ids=["grid", "volume", "mesh"])
+def test_random_is_uniform_on_every_domain(domain):
+    """Skaggs §3.1: every species of every cell from U[0, 1], seeded; ``low``/``high`` rescale."""
+    a = make_initial("random", GS, domain, P, seed=3)
+    assert a.shape == (2, *domain.spatial_shape)
+    assert a.min() >= 0.0 and a.max() < 1.0
+    n = a.size
+    assert abs(a.mean() - 0.5) < 4 * np.sqrt(1 / 12 / n)  # four standard errors
+    assert abs(a.var() - 1 / 12) < 0.01
+    np.testing.assert_array_equal(a, make_initial("random", GS, domain, P, seed=3))
+    assert not np.array_equal(a, make_initial("random", GS, domain, P, seed=4))
+    b = make_initial("random", GS, domain, P, seed=3, low=-2.0, high=2.0)
+    np.testing.assert_allclose(b, -2.0 + 4.0 * a, rtol=1e-6, atol=1e-6)
+    with pytest.raises(MorphogenError, match="low < high"):
+        make_initial("random", GS, domain, P, low=1.0, high=1.0)

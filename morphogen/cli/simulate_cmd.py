@@ -33,7 +33,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--stencil", type=int, choices=(5, 7, 9), help="Laplacian stencil points")
     p.add_argument("--scheme", choices=("euler", "rk4"), default=None, help="time stepper")
     p.add_argument("--init", metavar="KIND|FILE",
-                   help="uniform, noise, square, blobs, skaggs, seeds, or a .npz/image file")
+                   help="uniform, noise, square, blobs, skaggs, seeds, random "
+                   "(U[low, high], --init-opt high=2), or a .npz/image file")
     p.add_argument("--init-opt", action="append", metavar="NAME=VALUE",
                    help="option of the initial condition, e.g. count=20 (repeatable)")
     p.add_argument("--seed", type=int, default=None, help="random seed")
