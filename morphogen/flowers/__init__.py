@@ -1,4 +1,4 @@
-"""Flowers: procedural shapes, vertex sets, random points and positional information.
+"""Flowers: procedural shapes, vertex sets, random points, positional information and veins.
 
 Ringham et al. (2021) build flower pigmentation models from a shape, a prepattern and a
 sequence of simulations (§3.1-3.4); this package supplies the shape and prepattern parts.
@@ -10,7 +10,11 @@ from morphogen.flowers.positional import direction_field as direction_field
 from morphogen.flowers.positional import positional_information as positional_information
 from morphogen.flowers.sampling import random_vertices as random_vertices
 from morphogen.flowers.sampling import seed_field as seed_field
+from morphogen.flowers.sampling import surface_points as surface_points
 from morphogen.flowers.shapes import SHAPES as SHAPES
 from morphogen.flowers.shapes import corolla as corolla
 from morphogen.flowers.shapes import petal as petal
 from morphogen.flowers.shapes import tube as tube
+from morphogen.flowers.veins import VeinGraph as VeinGraph
+from morphogen.flowers.veins import space_colonisation as space_colonisation
+from morphogen.flowers.veins import vein_fields as vein_fields

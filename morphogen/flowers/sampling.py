@@ -9,6 +9,8 @@ distinct vertices; every draw comes from an explicit seed.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from morphogen.errors import MorphogenError
@@ -82,3 +84,52 @@ def seed_field(
     out = np.zeros(n_vertices)
     out[idx] = np.random.default_rng(seed + 1).uniform(low, high, size=len(idx))
     return out
+
+
+def surface_points(
+    mesh: Any,
+    count: int,
+    *,
+    density: np.ndarray | None = None,
+    seed: int = 0,
+) -> np.ndarray:
+    """``(count, 3)`` points on the surface, uniform by area, or with acceptance probability
+    ``density`` (per vertex, interpolated linearly over each triangle) by the rejection method
+    of §3.4.4: a face is chosen with probability proportional to its area, a point in it
+    uniformly (``sqrt`` trick on barycentric coordinates), accepted if ``p < f``.
+
+    Raises:
+        MorphogenError: ``count < 1``, or a density too small to reach ``count`` within
+            ``MAX_DRAWS_PER_POINT`` draws per point.
+    """
+    if count < 1:
+        raise MorphogenError(f"need at least one surface point, got {count}")
+    f = None
+    if density is not None:
+        f = np.clip(np.asarray(density, np.float64), 0.0, 1.0)
+        if f.shape != (mesh.n_vertices,):
+            raise MorphogenError(f"density has shape {f.shape}, expected ({mesh.n_vertices},)")
+        if not (f > 0).any():
+            raise MorphogenError("density is zero everywhere; no point can be accepted")
+    tri = mesh.vertices[mesh.faces]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    cdf = np.cumsum(area) / area.sum()
+    rng = np.random.default_rng(seed)
+    out: list[np.ndarray] = []
+    have, draws = 0, 0
+    while have < count:
+        batch = max(2 * (count - have), 64)
+        face = np.minimum(np.searchsorted(cdf, rng.random(batch)), len(cdf) - 1)
+        r1, r2 = np.sqrt(rng.random(batch)), rng.random(batch)
+        bary = np.stack([1 - r1, r1 * (1 - r2), r1 * r2], 1)
+        pts = (bary[:, :, None] * tri[face]).sum(1)
+        if f is not None:
+            accept = rng.random(batch) < (bary * f[mesh.faces[face]]).sum(1)
+            pts = pts[accept]
+        out.append(pts)
+        have += len(pts)
+        draws += batch
+        if have < count and draws > MAX_DRAWS_PER_POINT * count:
+            raise MorphogenError(f"density too small: only {have} of {count} points accepted "
+                                 f"after {draws} draws")
+    return np.concatenate(out)[:count]
