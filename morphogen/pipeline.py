@@ -19,12 +19,19 @@ parameters, initial values, boundary values or the anisotropy direction. ::
     [[stage]]                     # any field from expressions of fields and x, y, z
     kind = "fields"
     fields = { alpha = "lerp(13.5, 16.25, g**10)" }
+    show = "alpha"                # optional: render this field to out.png with cmap
 
     [[stage]]                     # random points (density by rejection, §3.4.4)
     kind = "points"
     field = "seeds"
     count = 80
     density = "g"
+
+    [[stage]]                     # veins by space colonisation (§3.4.1): fields vein,
+    kind = "veins"                # vein_thickness, vein_distance; graph in veins.npz
+    seeds = "base"                # a vertex set or an expression (> 0.5 is a seed)
+    points = 4000                 # attraction points; optional influence, kill, step (mesh
+    iterations = 400              # units), density, gamma, tip_radius, seed
 
     [[stage]]                     # a simulation: any library model or model file
     kind = "simulate"
@@ -61,11 +68,13 @@ from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
 from morphogen.io import ensure_writable_dir, write_json, write_npz
 
-KINDS = ("positional", "fields", "points", "simulate")
+KINDS = ("positional", "fields", "points", "veins", "simulate")
 _KEYS = {
     "positional": {"field", "sources", "sinks", "source_value", "sink_value", "decay", "cmap"},
-    "fields": {"fields"},
+    "fields": {"fields", "show", "cmap"},
     "points": {"field", "count", "density", "low", "high", "seed"},
+    "veins": {"seeds", "points", "influence", "kill", "step", "iterations", "density", "gamma",
+              "tip_radius", "seed", "show", "cmap"},
     "simulate": {"model", "preset", "steps", "time", "dt", "seed", "init", "init_options",
                  "params", "initial", "boundary", "directions", "omega", "outputs", "show",
                  "cmap", "unsafe"},
@@ -222,7 +231,11 @@ def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
         new: dict[str, np.ndarray] = {}
         for key, text in table.items():
             new[key] = evaluate(text, mesh.with_fields(**new))
-        return new, {}, None
+        if "show" not in stage:
+            return new, {}, None
+        shown = evaluate(stage["show"], mesh.with_fields(**new))
+        return new, {}, _preview(stage_dir, mesh, shown,
+                                 stage.get("cmap", spec.get("cmap", "viridis")), view)
     if kind == "points":
         density = stage.get("density")
         f = None if density is None else evaluate(density, mesh)
@@ -230,7 +243,58 @@ def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
                            low=float(stage.get("low", 1.0)), high=float(stage.get("high", 1.0)),
                            seed=int(stage.get("seed", spec.get("seed", 0))))
         return {stage.get("field", "points"): field}, {}, None
+    if kind == "veins":
+        return _veins_stage(stage, mesh, spec, stage_dir, view)
     return _simulate_stage(stage, mesh, spec, stage_dir, progress)
+
+
+def grow_veins(stage: Mapping[str, Any], mesh: Mesh, seed: int = 0):
+    """The vein graph and fields of a ``veins`` stage table (also used by ``mesh veins``)."""
+    from morphogen.flowers.veins import space_colonisation, vein_fields
+
+    spec = stage.get("seeds")
+    if not isinstance(spec, str) or not spec.strip():
+        raise MorphogenError("a veins stage needs seeds = \"VERTEX SET\" or an expression, "
+                             "e.g. seeds = \"base\"")
+    if spec in mesh.vertex_set_names():
+        seeds = mesh.vertex_set(spec)
+    else:
+        seeds = np.flatnonzero(evaluate(spec, mesh) > 0.5)
+    if seeds.size == 0:
+        raise MorphogenError(f"veins: seeds {spec!r} select no vertex")
+    lengths = {k: float(stage[k]) for k in ("influence", "kill", "step", "tip_radius")
+               if k in stage}
+    density = stage.get("density")
+    graph = space_colonisation(
+        mesh, seeds, points=_integer(stage, "points", 2000),
+        iterations=_integer(stage, "iterations", 400), gamma=float(stage.get("gamma", 3.0)),
+        density=None if density is None else evaluate(density, mesh),
+        seed=_integer(stage, "seed", seed), **lengths)
+    return graph, vein_fields(mesh, graph)
+
+
+def _integer(stage: Mapping[str, Any], key: str, default: int) -> int:
+    value = stage.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise MorphogenError(f"veins: {key} must be an integer, got {value!r}")
+    return int(value)
+
+
+def _veins_stage(stage, mesh: Mesh, spec, stage_dir: Path, view: Any):
+    """Veins: fields ``vein``, ``vein_thickness``, ``vein_distance``; ``veins.npz`` graph; a
+    preview of ``show`` (default ``vein_distance``) with the veins drawn over it."""
+    from morphogen.render.colour import colourise
+    from morphogen.render.images import write_png
+    from morphogen.render.mesh import overlay_veins, render_mesh
+
+    graph, fields = grow_veins(stage, mesh, int(spec.get("seed", 0)))
+    write_npz(stage_dir / "veins.npz", graph.arrays())
+    shown = evaluate(stage.get("show", "vein_distance"), mesh.with_fields(**fields))
+    colours = overlay_veins(colourise(shown, stage.get("cmap", spec.get("cmap", "viridis"))),
+                            fields["vein"], fields["vein_thickness"])
+    write_png(stage_dir / "out.png", render_mesh(mesh.vertices, mesh.faces, colours, view=view))
+    return fields, {"nodes": len(graph.nodes), "remaining_points": len(graph.remaining),
+                    "max_order": int(graph.order.max())}, colours
 
 
 def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):

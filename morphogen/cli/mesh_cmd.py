@@ -1,4 +1,4 @@
-"""``morphogen mesh``: generate flower meshes and describe mesh files."""
+"""``morphogen mesh``: generate flower meshes, grow veins on them and describe mesh files."""
 
 from __future__ import annotations
 
@@ -40,6 +40,29 @@ def register(sub: argparse._SubParsersAction) -> None:
     make.add_argument("--fringe", type=float, help="corolla: depth of the teeth")
     make.add_argument("--png", action="store_true", help="also write FILE.png, a rendered view")
     make.set_defaults(func=run_make)
+    veins = actions.add_parser(
+        "veins", help="grow veins on a mesh by space colonisation (Ringham et al. 3.4.1)",
+        description="Writes OUT.ply with the per-vertex fields vein (1 on veins), "
+        "vein_thickness and vein_distance (path length over mesh edges to the nearest vein, "
+        "mesh units), and the vein graph as OUT.veins.npz. Lengths default to multiples of "
+        "the mean edge e: step 2e, kill 3 step, influence 15 step.")
+    veins.add_argument("file", metavar="MESH.ply")
+    veins.add_argument("--out", required=True, metavar="OUT.ply", help="output PLY file")
+    veins.add_argument("--seeds", required=True, metavar="SET",
+                       help="where veins start: a vertex set (e.g. base) or an expression")
+    veins.add_argument("--points", type=int, default=2000, help="attraction points (2000)")
+    veins.add_argument("--influence", type=float, help="influence radius (mesh units)")
+    veins.add_argument("--kill", type=float, help="kill distance (mesh units)")
+    veins.add_argument("--step", type=float, help="growth step (mesh units)")
+    veins.add_argument("--iterations", type=int, default=400, help="at most (400)")
+    veins.add_argument("--density", metavar="EXPR",
+                       help="acceptance probability of attraction points, from fields")
+    veins.add_argument("--seed", type=int, default=0, help="random seed (0)")
+    veins.add_argument("--cmap", default="#f4f1fb,#7b68c8",
+                       help="colour map of vein_distance under the veins")
+    veins.add_argument("--view", default="oblique", help="view of the --png picture")
+    veins.add_argument("--png", action="store_true", help="also write OUT.png, a rendered view")
+    veins.set_defaults(func=run_veins)
     info = actions.add_parser("info", help="describe a PLY mesh: size, edges, fields, sets")
     info.add_argument("file", metavar="FILE.ply")
     info.set_defaults(func=run_info)
@@ -92,4 +115,41 @@ def run_info(args: argparse.Namespace) -> int:
         count = int((values > 0.5).sum())
         print(f"  field {name}: min {values.min():.4g}, max {values.max():.4g}, "
               f"{count} vertices > 0.5")
+    return 0
+
+
+def run_veins(args: argparse.Namespace) -> int:
+    from morphogen.io import write_npz
+    from morphogen.mesh_io import load_mesh, save_ply
+    from morphogen.pipeline import grow_veins
+    from morphogen.render.colour import colourise
+    from morphogen.render.mesh import overlay_veins, parse_view
+
+    out = Path(args.out)
+    if out.suffix.lower() != ".ply":
+        raise MorphogenError(f"--out must name a .ply file, got {args.out}")
+    parse_view(args.view)
+    mesh = load_mesh(args.file)
+    stage = {k: getattr(args, k) for k in ("seeds", "points", "influence", "kill", "step",
+                                            "iterations", "density", "seed")
+             if getattr(args, k) is not None}
+    graph, fields = grow_veins(stage, mesh)
+    colours = overlay_veins(colourise(fields["vein_distance"], args.cmap), fields["vein"],
+                            fields["vein_thickness"])
+    image = None
+    if args.png:
+        from morphogen.render.mesh import render_mesh
+
+        image = render_mesh(mesh.vertices, mesh.faces, colours, view=args.view)
+    graph_path = out.with_suffix(".veins.npz")
+    write_npz(graph_path, graph.arrays())
+    path = save_ply(out, mesh.with_fields(**fields), colours=colours)
+    if image is not None:
+        from morphogen.render.images import write_png
+
+        write_png(out.with_suffix(".png"), image)
+    print(f"wrote {path} and {graph_path}: {len(graph.nodes)} vein nodes from "
+          f"{len(graph.seeds)} seeds, Strahler order up to {int(graph.order.max())}, "
+          f"{int(fields['vein'].sum())} of {mesh.n_vertices} vertices on veins, "
+          f"{len(graph.remaining)} attraction points unreached")
     return 0

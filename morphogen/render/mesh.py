@@ -116,3 +116,34 @@ def _crop(image: np.ndarray, background: str, margin: int = 8) -> np.ndarray:
     r0, r1 = max(rows[0] - margin, 0), min(rows[-1] + margin + 1, image.shape[0])
     c0, c1 = max(cols[0] - margin, 0), min(cols[-1] + margin + 1, image.shape[1])
     return image[r0:r1, c0:c1]
+
+
+def overlay_veins(
+    colours: np.ndarray,
+    vein: np.ndarray,
+    thickness: np.ndarray | None = None,
+    *,
+    colour: str = "#1b1340",
+) -> np.ndarray:
+    """Per-vertex colours with veins drawn over them (Ringham et al. fig. 6): vein vertices
+    are mixed towards ``colour`` by ``0.6 + 0.4 t / t_max`` for thickness ``t`` (fully
+    where the veins are thickest).
+
+    Args:
+        colours: ``(V, 3)`` uint8 or float RGB in [0, 1].
+        vein: ``(V,)`` vein mask (1 on veins).
+        thickness: optional ``(V,)`` vein radius.
+
+    Returns:
+        ``(V, 3)`` uint8 RGB.
+    """
+    colours = np.asarray(colours)
+    rgb = colours.astype(np.float64) / (255.0 if colours.dtype == np.uint8 else 1.0)
+    mask = np.clip(np.asarray(vein, np.float64), 0.0, 1.0)
+    if mask.shape != (len(rgb),):
+        raise MorphogenError(f"vein mask has shape {mask.shape}, expected ({len(rgb)},)")
+    weight = mask * 0.6
+    if thickness is not None and np.max(thickness) > 0:
+        weight = mask * (0.6 + 0.4 * np.asarray(thickness) / np.max(thickness))
+    out = rgb * (1 - weight[:, None]) + np.array(to_rgb(colour))[None] * weight[:, None]
+    return np.rint(np.clip(out, 0.0, 1.0) * 255).astype(np.uint8)

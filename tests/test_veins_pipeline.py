@@ -1,0 +1,83 @@
+"""The veins pipeline stage and ``morphogen mesh veins``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from morphogen.cli.main import main
+from morphogen.errors import MorphogenError
+from morphogen.flowers import corolla, space_colonisation, vein_fields
+from morphogen.mesh_io import load_mesh, save_ply
+from morphogen.pipeline import run_pipeline
+
+PIPELINE = """
+seed = 5
+[mesh]
+shape = "corolla"
+edge = 0.06
+
+[[stage]]
+kind = "veins"
+seeds = "throat"
+points = 400
+
+[[stage]]
+kind = "fields"
+fields = { pigment = "exp(-vein_distance / 0.05)" }
+show = "pigment"
+"""
+
+
+def test_veins_stage_feeds_later_stages(tmp_path):
+    path = tmp_path / "p.toml"
+    path.write_text(PIPELINE)
+    mesh = run_pipeline(path, tmp_path / "out")
+    base = corolla(edge=0.06)
+    direct = vein_fields(base, space_colonisation(base, base.vertex_set("throat"), points=400,
+                                                  seed=5))
+    for key in ("vein", "vein_thickness", "vein_distance"):
+        assert np.array_equal(mesh.fields[key], direct[key])
+    assert np.allclose(mesh.fields["pigment"], np.exp(-direct["vein_distance"] / 0.05))
+    with np.load(tmp_path / "out" / "01-veins" / "veins.npz") as graph:
+        assert graph["parent"][0] == -1 and len(graph["edges"]) == len(graph["nodes"]) - len(
+            graph["seeds"])
+    assert (tmp_path / "out" / "01-veins" / "out.png").is_file()
+    assert (tmp_path / "out" / "02-fields" / "out.png").is_file()
+
+
+@pytest.mark.parametrize("stage, message", [
+    ("kind = 'veins'\n", "needs seeds"),
+    ("kind = 'veins'\nseeds = 'nowhere + 1'\n", "nowhere"),
+    ("kind = 'veins'\nseeds = 'throat'\npoints = 0\n", "attraction points"),
+    ("kind = 'veins'\nseeds = 'throat'\npoints = 2.5\n", "points must be an integer"),
+    ("kind = 'veins'\nseeds = 'where(x > 9, 1, 0)'\n", "select no vertex"),
+    ("kind = 'veins'\nseeds = 'throat'\nkill = 0.001\n", "step < kill"),
+])
+def test_bad_veins_stages(tmp_path, stage, message):
+    path = tmp_path / "p.toml"
+    path.write_text(f"[mesh]\nshape = 'corolla'\nedge = 0.1\n[[stage]]\n{stage}")
+    with pytest.raises(MorphogenError, match=message):
+        run_pipeline(path, tmp_path / "out")
+
+
+def test_mesh_veins_command(tmp_path, capsys):
+    src = tmp_path / "c.ply"
+    save_ply(src, corolla(edge=0.06))
+    out = tmp_path / "v.ply"
+    assert main(["mesh", "veins", str(src), "--out", str(out), "--seeds", "throat",
+                 "--points", "300", "--png"]) == 0
+    assert "vein nodes" in capsys.readouterr().out
+    mesh = load_mesh(out)
+    vein = mesh.fields["vein"]
+    assert set(np.unique(vein)) == {0.0, 1.0}
+    assert np.all(mesh.fields["vein_distance"][vein > 0] == 0)
+    assert mesh.fields["vein_distance"][vein == 0].min() > 0
+    with np.load(tmp_path / "v.veins.npz") as graph:
+        assert graph["nodes"].shape[1] == 3
+    assert (tmp_path / "v.png").is_file()
+    bad = tmp_path / "bad.ply"
+    assert main(["mesh", "veins", str(src), "--out", str(bad), "--seeds", "throat",
+                 "--points", "0"]) == 2
+    assert main(["mesh", "veins", str(src), "--out", str(bad), "--seeds", "nofield"]) == 2
+    assert not bad.exists() and not (tmp_path / "bad.veins.npz").exists()
