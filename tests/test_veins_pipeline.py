@@ -81,3 +81,24 @@ def test_mesh_veins_command(tmp_path, capsys):
                  "--points", "0"]) == 2
     assert main(["mesh", "veins", str(src), "--out", str(bad), "--seeds", "nofield"]) == 2
     assert not bad.exists() and not (tmp_path / "bad.veins.npz").exists()
+
+
+def test_platycodon_example_at_reduced_size(tmp_path):
+    from morphogen.pipeline import load_pipeline
+
+    spec = load_pipeline("examples/flowers/platycodon.toml")
+    spec["mesh"]["edge"] = 0.04
+    veins = spec["stage"][0]
+    veins.update(points=1500, step=0.08, kill=0.2, influence=0.6)
+    mesh = run_pipeline(spec, tmp_path / "out")
+    f = mesh.fields
+    vein = f["vein"] > 0.5
+    # one main vein per petal, rooted at the pedicel, reaching every lobe
+    with np.load(tmp_path / "out" / "01-veins" / "veins.npz") as graph:
+        assert len(graph["seeds"]) == 5
+    for lobe in range(5):
+        assert vein[(f["lobe"] == lobe) & (f["s"] > 1.3)].any()
+    # pigment is 1 on the veins and falls off as exp(-d / 0.025) away from them
+    assert np.all(f["pigment"][vein] == 1.0)
+    assert np.allclose(f["pigment"], np.exp(-f["vein_distance"] / 0.025))
+    assert f["pigment"][~vein].max() < 1.0 and f["pigment"][~vein].min() < 0.01
