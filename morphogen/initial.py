@@ -222,6 +222,8 @@ def load_state(path: str | Path, species: tuple[str, ...],
     except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
         raise MorphogenError(f"cannot read {path} as a state file: {exc}") from None
     for s, a in zip(species, arrays, strict=True):
+        if not isinstance(a, np.ndarray):
+            raise MorphogenError(f"{path}: member {s!r} is not a NumPy array")
         if a.dtype.kind not in "biuf":
             raise MorphogenError(f"{path}: array {s!r} holds {a.dtype} values, not numbers")
         if a.shape != shape:

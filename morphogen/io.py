@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import tempfile
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
@@ -29,6 +30,63 @@ def ensure_writable_dir(path: str | Path) -> Path:
     if not p.is_dir() or not os.access(p, os.W_OK):
         raise MorphogenError(f"output directory {p} is not writable; choose another with --out")
     return p
+
+
+def check_run_dir(path: str | Path) -> Path:
+    """Check, creating nothing, that a run directory can be written at ``path``: it is absent
+    (its nearest existing parent writable), empty, or an earlier run (it has ``run.json``),
+    which :func:`staged_dir` will replace whole."""
+    p = Path(path)
+    if p.exists():
+        if not p.is_dir():
+            raise MorphogenError(f"output {p} exists and is not a directory; choose another --out")
+        if any(p.iterdir()) and not (p / "run.json").is_file():
+            raise MorphogenError(
+                f"output directory {p} holds files but no run.json, so it is not a run to "
+                "replace; choose another --out"
+            )
+    parent = next((a for a in p.absolute().parents if a.exists()), Path("/"))
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise MorphogenError(f"cannot create output directory {p}: {parent} is not writable")
+    return p
+
+
+@contextmanager
+def staged_dir(path: str | Path) -> Iterator[Path]:
+    """Yield an empty hidden directory next to ``path``; on success it replaces ``path`` whole
+    (an earlier run there is removed), on failure it is deleted together with any parent
+    directories made for it, so an error leaves nothing behind."""
+    p = check_run_dir(path).absolute()
+    made = [a for a in reversed(p.parents) if not a.exists()]
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        stage = Path(tempfile.mkdtemp(dir=p.parent, prefix=f".{p.name}.", suffix=".new"))
+    except OSError as exc:
+        _remove_made(made)
+        raise MorphogenError(f"cannot create output directory {p}: {exc.strerror}") from None
+    try:
+        yield stage
+        os.chmod(stage, 0o777 & ~_umask())
+        if p.exists():
+            old = stage.with_suffix(".old")
+            os.rename(p, old)
+            os.rename(stage, p)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.rename(stage, p)
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        _remove_made(made)
+        raise
+
+
+def _remove_made(made: list[Path]) -> None:
+    """Remove directories created for a run that failed, deepest first, if still empty."""
+    for directory in reversed(made):
+        try:
+            directory.rmdir()
+        except OSError:
+            return
 
 
 @contextmanager

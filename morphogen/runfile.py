@@ -9,6 +9,7 @@ rebuilds the same :class:`RunConfig` and so the same state, bit for bit on the s
 from __future__ import annotations
 
 import json
+import math
 import platform
 import time
 from dataclasses import asdict, dataclass, field, fields
@@ -17,16 +18,20 @@ from typing import Any
 
 import numpy as np
 
+from morphogen import guard
 from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
 from morphogen.fields import resolve_params
 from morphogen.initial import make_initial
-from morphogen.io import ensure_writable_dir, write_json
-from morphogen.models.model import Model
+from morphogen.io import check_run_dir, staged_dir, write_json
+from morphogen.models.model import Model, Tensor
+from morphogen.runschema import validate_config
 from morphogen.simulate import Solution, simulate
 from morphogen.steppers import Noise, max_stable_dt
 
 FORMAT = "morphogen-run/1"
+SNAPSHOTS = 241
+"""Snapshots a run with ``every`` keeps at most (``simulate``'s ``max_snapshots`` + 1)."""
 
 
 @dataclass
@@ -70,21 +75,28 @@ class RunConfig:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> RunConfig:
         """Rebuild a config from ``run.json``'s ``config`` object (unknown keys are an error)."""
+        if not isinstance(data, dict):
+            raise MorphogenError("run file: 'config' must be an object")
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(data) - known)
         if unknown:
             raise MorphogenError(f"run file has unknown settings {unknown}")
         if "model" not in data:
             raise MorphogenError("run file lacks the 'model' setting")
+        validate_config(data, "run file")
         return cls(**data)
 
 
 def load_run_file(path: str | Path) -> RunConfig:
     """Read ``run.json`` (as written by :func:`execute`) into a :class:`RunConfig`."""
     try:
-        data = json.loads(Path(path).read_text())
+        data = json.loads(Path(path).read_bytes().decode("utf-8-sig"))
     except OSError as exc:
         raise MorphogenError(f"cannot read run file {path}: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise MorphogenError(f"run file {path} is not UTF-8 text (is it a run.json?)") from None
+    except RecursionError:
+        raise MorphogenError(f"run file {path} is nested too deeply") from None
     except json.JSONDecodeError as exc:
         raise MorphogenError(
             f"run file {path} is not valid JSON: {exc.msg} (line {exc.lineno})"
@@ -130,29 +142,58 @@ def build_domain(config: RunConfig, model: Model) -> Any:
 
 
 def prepare(config: RunConfig) -> Prepared:
-    """Validate and resolve everything before any output is written."""
+    """Validate and resolve everything before any output is written: the settings against
+    :class:`~morphogen.runschema.RunSchema`, then the run's cost against :mod:`morphogen.guard`
+    (memory before the domain is built, steps once ``dt`` is known)."""
+    validate_config(asdict(config), "run settings")
     set_precision(config.precision)
     model = load_config_model(config)
+    itemsize = 8 if config.precision == "float64" else 4
+    if not config.mesh:
+        guard.check_memory(math.prod(config.size), len(model.species), itemsize=itemsize)
     domain = build_domain(config, model)
+    cells = math.prod(domain.spatial_shape)
+    snapshots = SNAPSHOTS if config.every else 1
+    guard.check_memory(cells, len(model.species), snapshots=snapshots, itemsize=itemsize)
     values = model.parameters(config.params, preset=config.preset)
     params = resolve_params(model, domain, values)
+    check_diffusion(model, domain, params)
     u0 = make_initial(config.init or model.init, model, domain, params, seed=config.seed,
                       **config.init_options)
     if config.mesh:
         u0, params = _mesh_fields(config, model, domain, u0, params)
     dt = float(config.dt) if config.dt is not None else _default_dt(model, domain, params, config)
-    if config.steps is not None and config.time is not None:
-        raise MorphogenError("give either --steps or --time, not both")
     if config.steps is not None:
-        steps = int(config.steps)
+        steps = config.steps
     else:
         total = config.time if config.time is not None else model.t_end
-        steps = int(round(total / dt))
-    if steps < 1:
-        raise MorphogenError(f"the run needs at least one step (got {steps})")
+        steps = round(total / dt) if math.isfinite(total / dt) else total / dt
+    steps = guard.check_steps(steps, cells, len(model.species))
     if config.species is not None:
         model.species_index(config.species)
     return Prepared(config, model, domain, params, u0, dt, steps)
+
+
+def check_diffusion(model: Model, domain: Any, params: dict[str, np.ndarray]) -> None:
+    """Refuse a negative diffusion coefficient (or a tensor that is not positive
+    semi-definite, ``xx, yy >= 0`` and ``xx·yy >= xy²``) at ``t = 0``: ``u_t = -|D| Δu`` is
+    backward diffusion, ill-posed, and grows the finest grid modes without bound."""
+    import jax.numpy as jnp
+
+    coords = {**{k: jnp.asarray(v) for k, v in domain.coords.items()}, "t": jnp.asarray(0.0)}
+    coefficients = model.diffusion({k: jnp.asarray(v) for k, v in params.items()}, coords)
+    for s, d in zip(model.species, coefficients, strict=True):
+        if isinstance(d, Tensor):
+            xx, xy, yy = (np.asarray(c, np.float64) for c in d)
+            det = xx * yy - xy**2 + 1e-6 * (xx + yy) ** 2
+            worst = float(np.min(np.minimum(np.minimum(xx, yy), det)))
+        else:
+            worst = float(np.min(np.asarray(d, np.float64)))
+        if not worst >= 0:
+            raise MorphogenError(
+                f"species {s} has a negative or undefined diffusion coefficient ({worst:g}): "
+                "backward diffusion is ill-posed; use coefficients >= 0"
+            )
 
 
 def _mesh_fields(config: RunConfig, model: Model, mesh: Any, u0: np.ndarray,
@@ -196,15 +237,18 @@ def run_prepared(prep: Prepared, *, progress: bool = False) -> Solution:
 
 def execute(config: RunConfig, out: str | Path, *, progress: bool = False) -> Solution:
     """Prepare, simulate and write ``state.npz``, ``final.png``, ``run.json`` (and an
-    animation when snapshots were taken) into ``out``."""
+    animation when snapshots were taken) into ``out``, replacing an earlier run there whole;
+    nothing is created unless the run succeeds."""
     from morphogen.outputs import write_outputs
 
     prep = prepare(config)
-    out_dir = ensure_writable_dir(out)
+    check_run_dir(out)
     started = time.perf_counter()
     solution = run_prepared(prep, progress=progress)
-    write_outputs(out_dir, prep, solution)
-    write_json(out_dir / "run.json", run_record(prep, solution, time.perf_counter() - started))
+    wall = time.perf_counter() - started
+    with staged_dir(out) as stage:
+        write_outputs(stage, prep, solution)
+        write_json(stage / "run.json", run_record(prep, solution, wall))
     return solution
 
 

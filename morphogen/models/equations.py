@@ -28,15 +28,18 @@ every error names the file line and column. See ``docs/equations.md``.
 from __future__ import annotations
 
 import keyword
+import math
 import os
 import re
 import tomllib
+import unicodedata
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import jax.numpy as jnp
 
+from morphogen import guard
 from morphogen.errors import MorphogenError
 from morphogen.models.equation_terms import check_coefficient, principal_tensor, split_equation
 from morphogen.models.expr import FUNCTIONS, Evaluator, ExpressionError, compile_node, parse
@@ -100,6 +103,7 @@ def parse_model(
         MorphogenError: one line naming the problem, with the file line and column for errors
             inside expressions and TOML syntax.
     """
+    text = text.removeprefix("\ufeff")
     src = _Source(text, path)
     try:
         data = tomllib.loads(text)
@@ -164,8 +168,9 @@ def _run_hints(data, src) -> dict[str, Any]:
     for key in ("dt", "t_end"):
         if key in data:
             value = _number(data[key], key, src, src.locate(None, key))
-            if not value > 0:
-                raise src.error(f"{key} must be positive, got {value:g}", src.locate(None, key))
+            if not (value > 0 and math.isfinite(value)):
+                raise src.error(f"{key} must be a positive finite number, got {value:g}",
+                                src.locate(None, key))
             out[key] = value
     if "init" in data:
         from morphogen.initial import INITIAL_KINDS
@@ -287,6 +292,9 @@ def _species(data, src) -> tuple[str, ...]:
     where = src.locate(None, "species")
     if not (isinstance(species, list) and species and all(isinstance(s, str) for s in species)):
         raise src.error('species must be a non-empty list of names, e.g. ["u", "v"]', where)
+    if len(species) > guard.LIMITS.species:
+        raise src.error(f"{len(species)} species is more than the limit of "
+                        f"{guard.LIMITS.species}", where)
     for s in species:
         _check_name(s, "species", src, where)
     seen = set()
@@ -364,6 +372,11 @@ def _table(data, key, src, required=False) -> dict[str, Any]:
 
 
 def _check_name(name, kind, src, where) -> None:
+    if unicodedata.normalize("NFKC", name) != name:
+        raise src.error(
+            f"{kind} name {name!r} changes under Unicode normalisation (Python reads it as "
+            f"{unicodedata.normalize('NFKC', name)!r}); use plain letters", where,
+        )  # fmt: skip
     if not name.isidentifier() or name.startswith("_") or keyword.iskeyword(name):
         raise src.error(
             f"{kind} name {name!r} is not usable in expressions; use letters, digits and "

@@ -19,6 +19,7 @@ Equation text is untrusted (model files, the web app), so it is never handed to 
 from __future__ import annotations
 
 import ast
+import unicodedata
 from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -176,6 +177,19 @@ def compile_expression(
     return Expression(text, frozenset(free_names(tree)), compile_node(tree, text, names, what=what))
 
 
+def _check_normal_form(lines: list[str]) -> None:
+    """Refuse characters that NFKC normalisation changes (fullwidth ``ｕ``, ligatures, ...):
+    Python's parser would silently read them as other names (``ｕ`` as ``u``)."""
+    for number, line in enumerate(lines, 1):
+        for column, char in enumerate(line, 1):
+            if unicodedata.normalize("NFKC", char) != char:
+                raise ExpressionError(
+                    f"character {char!r} (U+{ord(char):04X}) would be read as "
+                    f"{unicodedata.normalize('NFKC', char)!r}; type the plain character",
+                    number, column,
+                )
+
+
 def parse(text: str, *, extra_functions: Mapping[str, int] | None = None) -> ast.expr:
     """Parse ``text`` and check it against the whitelist; returns the expression node.
 
@@ -194,6 +208,7 @@ def parse(text: str, *, extra_functions: Mapping[str, int] | None = None) -> ast
     if len(text) > MAX_LENGTH:
         raise ExpressionError(f"the expression is longer than {MAX_LENGTH} characters", 1, 1)
     lines = text.splitlines()
+    _check_normal_form(lines)
     _check_brackets(lines)
     # Inside brackets, line breaks and indentation are free; the bracket sits on a line of its
     # own, so every node keeps its column and moves down by exactly one line.
