@@ -228,11 +228,27 @@ def run_prepared(prep: Prepared, *, progress: bool = False) -> Solution:
     c = prep.config
     noise = Noise(**c.noise) if c.noise else None
     clamp = tuple(c.clamp) if isinstance(c.clamp, list | tuple) else c.clamp
-    return simulate(
+    solution = simulate(
         prep.model, prep.domain, prep.u0, prep.params, steps=prep.steps, dt=prep.dt,
         scheme=c.scheme, noise=noise, clamp=clamp, seed=c.seed, every=c.every,
         progress=progress, unsafe=c.unsafe,
     )
+    if c.clamp == "model" and prep.model.clamp is not None:
+        check_ceiling(prep.model, np.asarray(solution.state), prep.model.clamp[1])
+    return solution
+
+
+def check_ceiling(model: Model, state: np.ndarray, ceiling: float) -> None:
+    """A model's declared upper bound is a guard against overflow, not physics: a species
+    that reaches it has blown up, and the run says so instead of keeping the pinned values."""
+    for i, s in enumerate(model.species):
+        pinned = float(np.mean(state[i] >= ceiling))
+        if pinned > 0:
+            raise MorphogenError(
+                f"numerical blow-up: {pinned:.0%} of species {s} reached the model's ceiling "
+                f"{ceiling:g}; reduce --dt or check the parameters, or use --clamp LO:HI to "
+                "bound values explicitly"
+            )
 
 
 def execute(config: RunConfig, out: str | Path, *, progress: bool = False) -> Solution:

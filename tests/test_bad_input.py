@@ -198,3 +198,14 @@ def test_guard_estimates_are_the_formula():
         check_steps(LIMITS.steps + 1, 1, 1)
     with pytest.raises(MorphogenError, match=r"1\.28e\+14 cell updates"):
         check_steps(10**6, 64 * 10**6, 2)
+
+
+def test_reaching_the_model_ceiling_is_a_blow_up(tmp_path, capsys):
+    # Turing's clamp [0, 1e6] guards overflow; rho=5 drives v into it within 2000 steps.
+    out = tmp_path / "o"
+    argv = ["simulate", "turing", "--size", "16x16", "--steps", "2000", "-p", "rho=5",
+            "--unsafe", "--quiet", "--out", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "reached the model's ceiling 1e+06" in err and err.count("\n") == 1
+    assert not out.exists()
