@@ -201,9 +201,10 @@ def test_guard_estimates_are_the_formula():
 
 
 def test_reaching_the_model_ceiling_is_a_blow_up(tmp_path, capsys):
-    # Turing's clamp [0, 1e6] guards overflow; rho=5 drives v into it within 2000 steps.
+    # Turing's clamp [0, 1e6] guards overflow; rho=5 drives v into it within 2000 steps
+    # (on 32x32; a 16x16 grid has too few unstable modes to leave the ground state).
     out = tmp_path / "o"
-    argv = ["simulate", "turing", "--size", "16x16", "--steps", "2000", "-p", "rho=5",
+    argv = ["simulate", "turing", "--size", "32x32", "--steps", "2000", "-p", "rho=5",
             "--unsafe", "--quiet", "--out", str(out)]
     assert main(argv) == 2
     err = capsys.readouterr().err
