@@ -3,12 +3,16 @@
 The classic example is the Gray-Scott (F, k) map (Richard et al. fig. 9; Pearson's
 classification): every tile is one run with its own ``(x, y)`` parameter pair, all tiles share
 the initial state, and the whole grid is a single ``simulate_batch`` call (``vmap`` over the
-``NX * NY`` members), not a loop.
+``NX * NY`` members), not a loop. With ``watch`` the last few states of every tile are kept,
+so that :func:`classify_atlas` can name each tile's pattern family (fig. 9 drawn by itself).
 """
 
 from __future__ import annotations
 
+import csv
+import io
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -16,7 +20,11 @@ import numpy as np
 from morphogen.errors import MorphogenError
 from morphogen.fields import resolve_params
 from morphogen.initial import make_initial
+from morphogen.io import write_atomic
 from morphogen.models.model import Model
+from morphogen.patterns.classify import classify
+from morphogen.patterns.descriptors import NAMES, describe_batch
+from morphogen.patterns.watch import simulate_watched
 from morphogen.simulate import simulate_batch
 from morphogen.steppers import batch_params, check_stability
 
@@ -55,6 +63,7 @@ class Atlas:
         valid: whether each run stayed finite and bounded, shape ``(NY, NX)``.
         x, y: the axes.
         wall_time: seconds for the batched simulation.
+        snapshots: with ``watch``, the last states, shape ``(NY, NX, T + 1, S, *spatial)``.
     """
 
     states: np.ndarray
@@ -62,6 +71,7 @@ class Atlas:
     x: Axis
     y: Axis
     wall_time: float
+    snapshots: np.ndarray | None = None
 
 
 def compute_atlas(
@@ -78,6 +88,7 @@ def compute_atlas(
     progress: bool = False,
     scheme: str = "euler",
     unsafe: bool = False,
+    watch: tuple[int, int] | None = None,
     **options: Any,
 ) -> Atlas:
     """Simulate every ``(x, y)`` pair at once (one vmapped program).
@@ -87,6 +98,8 @@ def compute_atlas(
             be model parameters.
         unsafe: skip the explicit stability check (done over every member, since a diffusion
             coefficient may be an axis).
+        watch: ``(count, gap)``: also keep ``count + 1`` states ``gap`` steps apart at the end
+            (see :func:`morphogen.patterns.watch.simulate_watched`).
         options: passed to :func:`morphogen.simulate.simulate_batch` (``noise``, ``clamp``).
     """
     if x.name == y.name:
@@ -104,14 +117,56 @@ def compute_atlas(
     u0 = np.broadcast_to(u0, (ny * nx, *u0.shape))
     if not unsafe:
         check_stability(model, domain, batch, dt, scheme, batched=True)
-    sol = simulate_batch(model, domain, u0, batch, steps=steps, dt=dt, seed=seed, scheme=scheme,
-                         progress=progress, unsafe=True, **options)
     shape = (ny, nx)
+    snaps = None
+    if watch is None:
+        sol = simulate_batch(model, domain, u0, batch, steps=steps, dt=dt, seed=seed,
+                             scheme=scheme, progress=progress, unsafe=True, **options)
+    else:
+        sol, snaps = simulate_watched(model, domain, u0, batch, steps=steps, dt=dt,
+                                      count=watch[0], gap=watch[1], seed=seed, scheme=scheme,
+                                      progress=progress, unsafe=True, **options)
+        snaps = snaps.reshape(*shape, *snaps.shape[1:])
     return Atlas(
         states=sol.state.reshape(*shape, *sol.state.shape[1:]),
         valid=sol.valid.reshape(shape),
         x=x,
         y=y,
         wall_time=sol.wall_time,
+        snapshots=snaps,
     )
+
+
+def classify_atlas(atlas: Atlas, species: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Family label and descriptors of every tile of a watched 2D atlas, for one species.
+
+    Returns:
+        labels ``(NY, NX)`` (names from :data:`morphogen.patterns.classify.FAMILIES`) and a
+        dict of ``(NY, NX)`` descriptor arrays.
+    """
+    if atlas.snapshots is None:
+        raise MorphogenError("classifying an atlas needs its last states: compute it with watch")
+    snaps = atlas.snapshots[:, :, :, species]
+    if snaps.ndim != 5:
+        raise MorphogenError("pattern families are defined on 2D grids; this atlas is not 2D")
+    ny, nx = snaps.shape[:2]
+    desc = describe_batch(snaps.reshape(ny * nx, *snaps.shape[2:]))
+    labels = classify(desc, atlas.valid.reshape(-1))
+    return labels.reshape(ny, nx), {k: np.asarray(v).reshape(ny, nx) for k, v in desc.items()}
+
+
+def write_families(path: str | Path, atlas: Atlas, labels: np.ndarray,
+                   descriptors: dict[str, np.ndarray]) -> Path:
+    """Write ``families.csv`` atomically: one row per tile, the two parameter values, the
+    family and the descriptors (rows in order of ``y`` then ``x``)."""
+    text = io.StringIO()
+    out = csv.writer(text, lineterminator="\n")
+    names = [n for n in NAMES if n in descriptors]
+    out.writerow([atlas.x.name, atlas.y.name, "family", *names])
+    for i, yv in enumerate(atlas.y.values):
+        for j, xv in enumerate(atlas.x.values):
+            out.writerow([f"{xv:.6g}", f"{yv:.6g}", labels[i, j],
+                          *(f"{float(descriptors[n][i, j]):.6g}" for n in names)])
+    data = text.getvalue().encode()
+    return write_atomic(path, lambda f: f.write(data))
 

@@ -7,12 +7,15 @@ from pathlib import Path
 
 import numpy as np
 
-from morphogen.atlas import Axis, compute_atlas
+from morphogen.atlas import Axis, classify_atlas, compute_atlas, write_families
 from morphogen.cli import options
 from morphogen.domains.grid import Grid
+from morphogen.errors import MorphogenError
 from morphogen.io import ensure_writable_dir, write_json, write_npz
 from morphogen.models.equations import load_model
+from morphogen.patterns.classify import COLOURS
 from morphogen.render import atlas_image, colour_limits, state_image, write_png
+from morphogen.render.mosaic import frame_tiles
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -21,7 +24,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="map a pattern over two parameters in one batched run",
         description="Simulate a grid of parameter pairs (e.g. Gray-Scott F and k) as one "
         "batched program and write DIR/atlas.png (labelled mosaic), DIR/atlas.npz, "
-        "DIR/atlas.json.",
+        "DIR/atlas.json; with --classify also DIR/families.csv (the pattern family of each "
+        "tile, drawn on the mosaic).",
     )
     p.add_argument("model", metavar="MODEL_OR_FILE")
     p.add_argument("--x", required=True, metavar="NAME=START:STOP:N", help="horizontal axis")
@@ -40,6 +44,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--species", help="species to draw")
     p.add_argument("--cmap", default="viridis")
     p.add_argument("--unsafe", action="store_true", help="skip the stability check on dt")
+    p.add_argument("--classify", action="store_true",
+                   help="name each tile's pattern family (spots, stripes, ...) on the mosaic "
+                   "and in DIR/families.csv")
+    p.add_argument("--watch", default="4x50", metavar="COUNTxGAP",
+                   help="with --classify: states kept at the end for the temporal descriptors "
+                   "(default 4x50: 5 states 50 steps apart)")
     p.add_argument("--out", default=None, help="output directory (default out/atlas-MODEL)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -55,16 +65,27 @@ def run(args: argparse.Namespace) -> int:
     steps = args.steps or int(round((args.time or model.t_end) / dt))
     species = args.species or model.display_species
     index = model.species_index(species)
+    watch = _watch(args.watch, steps) if args.classify else None
+    if watch and len(grid.shape) != 2:
+        raise MorphogenError("--classify works on 2D grids; give --size as WxH")
     out = ensure_writable_dir(args.out or Path("out") / f"atlas-{Path(args.model).stem}")
     atlas = compute_atlas(model, grid, x, y, params=options.assignments(args.param),
                           steps=steps, dt=dt, init=args.init, seed=args.seed,
-                          progress=options.show_progress(args), unsafe=args.unsafe)
+                          progress=options.show_progress(args), unsafe=args.unsafe,
+                          watch=watch)
     fields = atlas.states[:, :, index]
     if fields.ndim == 5:
         fields = fields[:, :, fields.shape[2] // 2]
     lo, hi = colour_limits(fields[atlas.valid] if atlas.valid.any() else fields)
     tiles = np.stack([[state_image(f, args.cmap, lo, hi) for f in row] for row in fields])
     title = f"{model.name}: {species} after {steps} steps (dt={dt:g})"
+    families = None
+    if watch:
+        labels, descriptors = classify_atlas(atlas, index)
+        write_families(out / "families.csv", atlas, labels, descriptors)
+        tiles = frame_tiles(tiles, labels, COLOURS)
+        families = {f: int((labels == f).sum()) for f in COLOURS if (labels == f).any()}
+        title += ", families: " + ", ".join(f"{f} {n}" for f, n in families.items())
     write_png(out / "atlas.png", atlas_image(tiles, x.name, x.values, y.name, y.values,
                                              title=title))
     write_npz(out / "atlas.npz", {species: fields, x.name: x.values, y.name: y.values,
@@ -73,8 +94,18 @@ def run(args: argparse.Namespace) -> int:
         "model": model.name, "x": {"name": x.name, "values": x.values},
         "y": {"name": y.name, "values": y.values}, "size": list(grid.shape), "dt": dt,
         "steps": steps, "seed": args.seed, "invalid": int((~atlas.valid).sum()),
-        "wall_time_s": round(atlas.wall_time, 3),
+        "wall_time_s": round(atlas.wall_time, 3), "families": families,
     })
     print(f"wrote {out}/atlas.png ({len(y.values)}x{len(x.values)} runs, "
           f"{atlas.wall_time:.1f} s, {(~atlas.valid).sum()} blew up)")
     return 0
+
+
+def _watch(text: str, steps: int) -> tuple[int, int]:
+    count, sep, gap = text.lower().partition("x")
+    if not sep or not count.isdigit() or not gap.isdigit() or int(count) < 1 or int(gap) < 1:
+        raise MorphogenError(f"--watch {text!r}: use COUNTxGAP with whole numbers >= 1, e.g. 4x50")
+    if int(count) * int(gap) > steps:
+        raise MorphogenError(f"--watch {text}: {int(count) * int(gap)} steps watched but the run "
+                             f"has only {steps}; watch fewer or run longer")
+    return int(count), int(gap)

@@ -32,6 +32,11 @@ import numpy as np
 FAMILIES = ("uniform", "spots", "stripes", "holes", "mixed", "chaotic", "oscillating",
             "blown-up")
 
+# The colour of each family's frame on atlas tiles and elite maps.
+COLOURS = {"uniform": "#9e9e9e", "spots": "#e6194b", "stripes": "#3cb44b", "holes": "#4363d8",
+           "mixed": "#f58231", "chaotic": "#911eb4", "oscillating": "#42d4f4",
+           "blown-up": "#000000"}
+
 GRID_ENERGY = 0.5
 UNIFORM_RANGE = 1e-3
 ACTIVE = 0.01

@@ -14,7 +14,7 @@ spaces onto two lines) until every caption fits its tile, so 64-pixel tiles stay
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from functools import lru_cache
 
 import numpy as np
@@ -190,6 +190,44 @@ def format_ticks(values: Sequence[float]) -> list[str]:
 def _tick_step(label_extent: float, cell: int) -> int:
     """Show every ``k``-th tick so that labels ``label_extent`` pixels long do not overlap."""
     return max(1, math.ceil((label_extent + 4) / cell))
+
+
+def frame_tiles(
+    tiles: np.ndarray,
+    labels: np.ndarray,
+    colours: Mapping[str, str],
+    *,
+    width: int = 2,
+) -> np.ndarray:
+    """Frame every tile in its label's colour and write the label in its top-left corner.
+
+    Args:
+        tiles: ``(..., H, W, 3)`` uint8; labels: the leading shape of ``tiles``, strings.
+        colours: label -> ``"#rrggbb"``; the text is white on that colour.
+
+    Returns:
+        a copy of ``tiles`` with the frames and labels drawn.
+    """
+    tiles = np.asarray(tiles)
+    labels = np.asarray(labels)
+    if tiles.ndim < 3 or tiles.shape[-1] != 3 or tiles.shape[:-3] != labels.shape:
+        raise MorphogenError(f"tiles {tiles.shape} need one label each, got {labels.shape}")
+    h, w = tiles.shape[-3:-1]
+    size = int(np.clip(round(w / 6), 8, 12))
+    out = tiles.reshape(-1, h, w, 3).copy()
+    for i, label in enumerate(labels.reshape(-1)):
+        label = str(label)
+        if label not in colours:
+            raise MorphogenError(f"no colour for label {label!r}; known: {', '.join(colours)}")
+        colour = _colour_bytes(colours[label])
+        image = Image.fromarray(out[i])
+        draw = ImageDraw.Draw(image)
+        draw.rectangle([0, 0, w - 1, h - 1], outline=colour, width=width)
+        text = label
+        draw.rectangle([0, 0, math.ceil(_width(text, size)) + 3, _line_height(size)], fill=colour)
+        draw.text((2, 0), text, font=_font(size), fill=(255, 255, 255))
+        out[i] = np.asarray(image)
+    return out.reshape(tiles.shape)
 
 
 def atlas_image(
