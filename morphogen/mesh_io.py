@@ -37,6 +37,7 @@ def _read(path: str | Path):
     p = Path(path)
     if not p.is_file():
         raise MorphogenError(f"mesh file {p} does not exist")
+    check_declared_sizes(p)
     try:
         with open(p, "rb") as fh:
             return PlyData.read(fh)
@@ -45,6 +46,49 @@ def _read(path: str | Path):
     except Exception as exc:  # plyfile raises many types (PlyParseError, ValueError, EOFError)
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise MorphogenError(f"cannot read PLY file {p}: {reason}") from None
+
+
+_SIZES = {"char": 1, "int8": 1, "uchar": 1, "uint8": 1, "short": 2, "int16": 2, "ushort": 2,
+          "uint16": 2, "int": 4, "int32": 4, "uint": 4, "uint32": 4, "float": 4, "float32": 4,
+          "double": 8, "float64": 8}
+MAX_HEADER = 1 << 16
+"""Bytes of a PLY header read before the declared element counts are checked."""
+
+
+def check_declared_sizes(path: Path) -> None:
+    """Refuse a PLY file whose header declares more elements than its body can hold.
+
+    Each element needs at least ``sum(scalar sizes) + sum(list count sizes)`` bytes in binary
+    (a list may be empty) and two characters per property in ASCII (a digit and a separator),
+    so ``sum(count × minimum)`` may not exceed the bytes after ``end_header``. A 188-byte file
+    declaring 10⁸ faces is refused here, before any parser allocates for them. Headers this
+    check cannot read are left to the parser's own errors.
+    """
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(MAX_HEADER)
+    end = head.find(b"end_header")
+    if not head.startswith(b"ply") or end < 0:
+        return
+    body = size - (head.find(b"\n", end) + 1)
+    lines = head[:end].decode("ascii", "replace").splitlines()
+    ascii_format = any(line.split()[:2] == ["format", "ascii"] for line in lines if line.strip())
+    needed, elements = 0, []
+    for line in lines:
+        words = line.split()
+        if len(words) == 3 and words[0] == "element" and words[2].isdigit():
+            elements.append([words[1], int(words[2]), 0])
+        elif elements and len(words) >= 3 and words[0] == "property":
+            kind = words[2] if words[1] == "list" else words[1]
+            elements[-1][2] += 2 if ascii_format else _SIZES.get(kind, 1)
+    for name, count, minimum in elements:
+        needed += count * max(minimum, 1)
+        if needed > body:
+            raise MorphogenError(
+                f"PLY file {path} declares {count} {name} element(s), which need at least "
+                f"{needed} bytes, but it has only {body} bytes after its header; the file is "
+                "truncated or its header is wrong"
+            )
 
 
 def _vertex_element(ply, path) -> Any:

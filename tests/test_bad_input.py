@@ -210,3 +210,38 @@ def test_reaching_the_model_ceiling_is_a_blow_up(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "reached the model's ceiling 1e+06" in err and err.count("\n") == 1
     assert not out.exists()
+
+
+@pytest.mark.parametrize("faces", [10**8, 10**9])
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian"])
+def test_ply_declaring_more_faces_than_its_bytes_is_refused_at_once(tmp_path, faces, fmt):
+    import time
+
+    from morphogen.mesh_io import load_mesh
+
+    header = (f"ply\nformat {fmt} 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+              f"property float z\nelement face {faces}\nproperty list uchar int vertex_indices\n"
+              "end_header\n")
+    body = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n" if fmt == "ascii" else (
+        np.eye(3, dtype="<f4").tobytes() + bytes([3]) + np.arange(3, dtype="<i4").tobytes())
+    path = tmp_path / "big.ply"
+    path.write_bytes(header.encode() + (body.encode() if isinstance(body, str) else body))
+    started = time.perf_counter()
+    with pytest.raises(MorphogenError, match=f"declares {faces} face element"):
+        load_mesh(path)
+    assert time.perf_counter() - started < 1.0
+
+
+def test_ply_header_check_passes_an_exact_file(tmp_path):
+    from morphogen.mesh_io import check_declared_sizes
+
+    # Binary: 3 vertices x 12 bytes + 1 face x 1 count byte = 37 bytes at least.
+    header = (b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+              b"property float y\nproperty float z\nelement face 1\n"
+              b"property list uchar int vertex_indices\nend_header\n")
+    path = tmp_path / "m.ply"
+    path.write_bytes(header + bytes(37))
+    check_declared_sizes(path)
+    path.write_bytes(header + bytes(36))
+    with pytest.raises(MorphogenError, match="need at least 37 bytes.*only 36 bytes"):
+        check_declared_sizes(path)
