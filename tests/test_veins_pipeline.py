@@ -102,3 +102,22 @@ def test_platycodon_example_at_reduced_size(tmp_path):
     assert np.all(f["pigment"][vein] == 1.0)
     assert np.allclose(f["pigment"], np.exp(-f["vein_distance"] / 0.025))
     assert f["pigment"][~vein].max() < 1.0 and f["pigment"][~vein].min() < 0.01
+
+
+def test_dianthus_example_at_reduced_size(tmp_path):
+    from morphogen.pipeline import load_pipeline
+
+    spec = load_pipeline("examples/flowers/dianthus.toml")
+    spec["mesh"]["edge"] = 0.035
+    spec["stage"][0].update(points=600, step=0.3, kill=0.7, influence=3.0)
+    spec["stage"][2].update(steps=300, dt=1e-3, omega=1e9)  # t = 0.3, as 3 000 steps of 1e-4
+    mesh = run_pipeline(spec, tmp_path / "out")
+    f = mesh.fields
+    band, vein, m = f["band"] > 0.5, f["vein"] > 0.5, f["m"]
+    assert np.allclose(m[band], 1.0) and np.allclose(m[(f["s"] < 0.12) & ~band], 0.0)
+    assert np.allclose(f["D"], np.where(vein, 3.0, 0.0075))
+    # beyond the band, the morphogen has gone further along the veins than beside them
+    ahead = (f["s"] > 0.42) & (f["s"] < 0.6)
+    assert np.median(m[ahead & vein]) > 10 * np.median(m[ahead & ~vein])
+    assert m[(f["margin"] > 0.5) & (f["s"] > 0.8)].max() < 0.05  # stopped before the margin
+    assert np.allclose(f["pigment"], 1 / (1 + np.exp(-(m - 0.3) / 0.03)))
