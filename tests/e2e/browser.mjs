@@ -258,6 +258,50 @@ const SCENARIOS = {
   },
 };
 
+SCENARIOS.details = async (page) => {
+  // elements marked hidden must not show on any page before anything has run
+  const hiddenShown = {};
+  for (const name of ['atlas', 'evolve', 'mesh']) {
+    await page.goto(`${base}#${name}`);
+    await page.waitForSelector(`#page-${name}:not([hidden])`);
+    await page.waitForTimeout(500);
+    hiddenShown[name] = await page.evaluate(() => [...document.querySelectorAll('[hidden]')]
+      .filter((e) => getComputedStyle(e).display !== 'none').map((e) => e.id || e.tagName));
+  }
+  await openExplore(page);
+  await pause(page);
+  const x = () => page.evaluate(() => window.morphogenExplore.running);
+  await page.evaluate(() => document.activeElement?.blur());
+  const running = [];
+  await page.keyboard.press('Space');
+  running.push(await x());
+  await page.keyboard.press('Space');
+  running.push(await x());
+  await page.waitForFunction(() => !window.morphogenExplore.inflight);
+  const f0 = await framesNow(page);
+  await page.keyboard.press('s');
+  await page.waitForFunction((f) => window.morphogenExplore.frames > f && !window.morphogenExplore.inflight, f0);
+  await page.waitForTimeout(300);
+  const stepped = (await framesNow(page)) - f0;
+  // choosing a preset keeps it shown in the menu
+  await page.selectOption('#ex-preset', 'mazes');
+  await page.waitForFunction(() => Math.abs(window.morphogenExplore.state.params.F - 0.029) < 1e-9);
+  const preset = await page.inputValue('#ex-preset');
+  // typing a value beyond the slider widens it; a value back inside restores the model's range
+  const rangeMax = () => page.evaluate(() => Number(document.querySelector('input[data-param="F"]').max));
+  const maxBefore = await rangeMax();
+  const num = 'input[data-param="F"] + input';
+  await page.fill(num, '50');
+  await page.press(num, 'Enter');
+  const maxAt50 = await rangeMax();
+  await page.fill(num, '0.037');
+  await page.press(num, 'Enter');
+  const maxBack = await rangeMax();
+  const rendering = await page.evaluate(() => getComputedStyle(document.getElementById('ex-canvas')).imageRendering);
+  return { hiddenShown, running, stepped, preset, maxBefore, maxAt50, maxBack, rendering,
+    presetAfterEdit: await page.inputValue('#ex-preset') };
+};
+
 const browser = await chromium.launch({
   executablePath: process.env.MORPHOGEN_CHROMIUM || '/usr/bin/chromium',
   args: ARGS,

@@ -156,3 +156,16 @@ def test_mesh_page_grows_and_rotates_a_flower(server):
     data = scenario(server, "mesh")
     assert data["faces"] > 1000
     assert data["before"] != data["after"], "dragging did not rotate the view"
+
+
+def test_hidden_elements_keys_presets_and_slider_ranges(server):
+    """Web-app details: hidden controls stay hidden (page CSS must not override ``hidden``),
+    Space/S drive the simulation, a chosen preset stays shown until a parameter changes, a
+    typed value widens the slider only while it needs to, the canvas scales by pixels."""
+    data = scenario(server, "details")
+    assert data["hiddenShown"] == {"atlas": [], "evolve": [], "mesh": []}
+    assert data["running"] == [True, False]
+    assert data["stepped"] == 1
+    assert data["preset"] == "mazes" and data["presetAfterEdit"] == ""
+    assert data["maxAt50"] == 50 and data["maxBack"] == data["maxBefore"] < 50
+    assert data["rendering"] == "pixelated"

@@ -76,6 +76,7 @@ export class Explore {
 
   // (Re)start with settings {model, params, preset, init, seed, size, boundary}.
   async load(settings) {
+    this.presetName = settings.preset || '';
     const body = {
       model: settings.model,
       params: settings.params,
@@ -121,7 +122,7 @@ export class Explore {
     if (rebuild) this.buildParams();
     for (const [name, v] of Object.entries(state.params)) this.setParamUI(name, v);
     fillSelect(this.$('ex-species'), state.species, state.show);
-    fillSelect(this.$('ex-preset'), [['', '—'], ...Object.keys(this.model.presets)], '');
+    fillSelect(this.$('ex-preset'), [['', '—'], ...Object.keys(this.model.presets)], this.presetName);
     this.$('ex-desc').textContent = [this.model.description, this.model.reference]
       .filter(Boolean).join(' — ');
     this.$('ex-steps').value = String(state.steps_per_frame);
@@ -148,22 +149,26 @@ export class Explore {
       range.addEventListener('input', () => { num.value = fmt(Number(range.value)); this.queueParam(p.name, Number(range.value)); });
       num.addEventListener('change', () => {
         const v = Number(num.value);
-        if (v > Number(range.max)) range.max = v;
-        if (v < Number(range.min)) range.min = v;
-        range.value = v;
+        this.fitRange(p.name, v);
         this.queueParam(p.name, v);
       });
-      this.paramInputs[p.name] = { range, num };
+      this.paramInputs[p.name] = { range, num, min: Number(p.min), max: Number(p.max) };
       box.append(el('div', { class: 'param' }, el('span', { class: 'pname', title: p.name, text: p.name }), range, num));
     }
+  }
+
+  // the slider spans the model's range, widened only as far as the value needs
+  fitRange(name, v) {
+    const inp = this.paramInputs[name];
+    inp.range.min = Math.min(inp.min, v);
+    inp.range.max = Math.max(inp.max, v);
+    inp.range.value = v;
   }
 
   setParamUI(name, v) {
     const inp = this.paramInputs?.[name];
     if (!inp) return;
-    if (v > Number(inp.range.max)) inp.range.max = v;
-    if (v < Number(inp.range.min)) inp.range.min = v;
-    inp.range.value = v;
+    this.fitRange(name, v);
     inp.num.value = fmt(v);
   }
 
@@ -175,6 +180,8 @@ export class Explore {
   }
 
   queueParam(name, value) {
+    this.presetName = '';
+    this.$('ex-preset').value = '';
     this.pending[name] = value;
     if (!this.paramTimer) this.paramTimer = setTimeout(() => this.sendParams(), 40);
   }
@@ -239,10 +246,24 @@ export class Explore {
     this.$('ex-size').addEventListener('change', () => this.restart());
     this.$('ex-boundary').addEventListener('change', () => this.restart());
     this.$('ex-run').addEventListener('click', () => this.setRunning(!this.running));
-    this.$('ex-step').addEventListener('click', () => {
-      this.setRunning(false);
-      this.request(true);
-    });
+    this.$('ex-step').addEventListener('click', () => this.stepOnce());
+    document.addEventListener('keydown', (ev) => this.onKey(ev));
+  }
+
+  stepOnce() {
+    this.setRunning(false);
+    this.request(true);
+  }
+
+  // Space pause/run, S one frame, R reset; not while typing in a field
+  onKey(ev) {
+    if (!this.visible || ev.ctrlKey || ev.metaKey || ev.altKey) return;
+    if (ev.target.closest?.('input, textarea, select, [contenteditable]')) return;
+    const action = { ' ': () => this.setRunning(!this.running), s: () => this.stepOnce(),
+      r: () => this.reset() }[ev.key.toLowerCase()];
+    if (!action) return;
+    ev.preventDefault();
+    action();
   }
 
   restart() {
