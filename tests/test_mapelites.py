@@ -1,0 +1,75 @@
+"""MAP-Elites: cells from descriptors, and the archive invariant (only fitter genomes replace
+an elite, and only in their own cell)."""
+
+import jax
+import numpy as np
+import pytest
+
+from morphogen.errors import MorphogenError
+from morphogen.search.genes import Gene
+from morphogen.search.mapelites import MapElites, coverage, qd_score
+
+N = 64
+Y, X = np.mgrid[0:N, 0:N].astype(np.float32)
+HEX = sum(np.cos(2 * np.pi * (a * X + b * Y) / N) for a, b in ((4, 0), (-2, 4), (-2, -4)))
+FIELDS = np.stack([HEX, -HEX, np.sin(2 * np.pi * X / 16), np.sin(2 * np.pi * Y / 8)])
+GENES = [Gene("a", 0.0, 1.0, 0.05), Gene("b", -2.0, 2.0, 0.1)]
+
+
+def test_cells_follow_the_descriptor_grid():
+    me = MapElites(population_size=4, descriptors=("spot_index",), bins=3)
+    # ranges (-1.5, 1.5), three bins of width 1: spots (0.875) -> 2, holes -> 0, stripes -> 1
+    cells = np.asarray(me.cells_of(me.measure(FIELDS)))
+    assert list(cells) == [2, 0, 1, 1]
+    two = MapElites(population_size=4, bins=4)
+    assert two.cell_count == 16
+    assert int(two.cells_of(np.array([[10.0, 0.3]]))[0]) == 3 + 4 * 1  # clipped to the edge bin
+
+
+def test_elites_are_replaced_only_by_fitter_genomes_of_their_cell():
+    me = MapElites(population_size=4, descriptors=("spot_index",), bins=3)
+    key = jax.random.PRNGKey(0)
+    state = me.init(key, GENES)
+    genomes, state = me.ask(key, state)
+    low, high = np.array([0.0, -2.0]), np.array([1.0, 2.0])
+    assert np.all((np.asarray(genomes) >= low) & (np.asarray(genomes) <= high))
+    rng = np.random.default_rng(1)
+    for gen in range(12):
+        order = rng.permutation(4)
+        fields = FIELDS[order]
+        fitness = rng.normal(size=4).astype(np.float32)
+        if gen == 3:
+            fitness[0] = np.nan  # a failed evaluation never becomes an elite
+        cells = np.asarray(me.cells_of(me.measure(fields)))
+        before_f = np.asarray(state.inner.fitness).copy()
+        before_g = np.asarray(state.inner.genomes).copy()
+        state, _ = me.tell(genomes, fitness, state, fields=fields)
+        after_f = np.asarray(state.inner.fitness)
+        after_g = np.asarray(state.inner.genomes)
+        clean = np.where(np.isnan(fitness), -np.inf, fitness)
+        for c in range(me.cell_count):
+            told = clean[cells == c]
+            best = told.max() if told.size else -np.inf
+            if best > before_f[c]:
+                assert after_f[c] == best
+                np.testing.assert_array_equal(after_g[c], np.asarray(genomes)[cells == c][
+                    np.argmax(told)])
+            else:
+                assert after_f[c] == before_f[c]
+                np.testing.assert_array_equal(after_g[c], before_g[c])
+        genomes, state = me.ask(jax.random.fold_in(key, gen + 1), state)
+        g = np.asarray(genomes)
+        assert np.all((g >= low) & (g <= high))
+    assert coverage(state) == 1.0
+    assert qd_score(state) == pytest.approx(float(np.sum(np.asarray(state.inner.fitness))))
+
+
+def test_map_elites_needs_fields_and_valid_settings():
+    me = MapElites(population_size=4)
+    state = me.init(jax.random.PRNGKey(0), GENES)
+    with pytest.raises(MorphogenError, match="fields"):
+        me.tell(np.zeros((4, 2)), np.zeros(4), state)
+    with pytest.raises(MorphogenError, match="descriptors"):
+        MapElites(population_size=4, descriptors=("colour",))
+    with pytest.raises(MorphogenError, match="ranges"):
+        MapElites(population_size=4, descriptors=("euler",))
