@@ -38,6 +38,30 @@ class UnstableTimeStepError(MorphogenError):
         self.dt = dt
         self.dt_max = dt_max
         super().__init__(
-            f"dt={dt:g} exceeds the {scheme} stability limit for diffusion; "
+            f"dt={dt:g} exceeds the {scheme} stability limit (diffusion and the linearised "
+            "reaction, with a safety margin); "
             f"use --dt {dt_max:.6g} or smaller (or --unsafe to run anyway)"
+        )
+
+
+class DivergenceError(BlowUpError):
+    """The run is diverging before it overflows: a growing grid-scale (checkerboard) mode or
+    values far outside the range the run started from.
+
+    Attributes:
+        step, species, t: as for :class:`BlowUpError`.
+        dt_suggested: a step to retry with.
+    """
+
+    def __init__(self, step: int, species: tuple[str, ...], t: float, what: str,
+                 dt_suggested: float):
+        self.step = step
+        self.species = species
+        self.t = t
+        self.dt_suggested = dt_suggested
+        names = ", ".join(species)
+        ValueError.__init__(
+            self,
+            f"run diverging at step {step} (t={t:g}) in species {names}: {what}; "
+            f"use --dt {dt_suggested:.6g} or smaller (or --unsafe to run anyway)",
         )

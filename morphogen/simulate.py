@@ -3,7 +3,10 @@
 - :func:`integrate` is pure JAX (``lax.scan``): jit-, vmap- and grad-friendly, no host checks.
 - :func:`simulate` and :func:`simulate_batch` drive it in compiled chunks; between chunks they
   take snapshots, update the progress bar and check for blow-up (NaN, Inf or overflow), which
-  is reported with the step and species, never silently clamped.
+  is reported with the step and species, never silently clamped. Unless ``unsafe``, they also
+  stop a run that is diverging before it overflows (a growing checkerboard mode, values far
+  outside the starting range; :func:`morphogen.stability.divergence_flags`), with a suggested
+  ``dt``.
 """
 
 from __future__ import annotations
@@ -18,10 +21,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from morphogen.errors import BlowUpError, MorphogenError
+from morphogen.errors import BlowUpError, DivergenceError, MorphogenError
 from morphogen.models.model import Array, Model, Params
 from morphogen.progress import ProgressBar
-from morphogen.steppers import Noise, check_stability, make_step
+from morphogen.stability import divergence_flags, observed_scale
+from morphogen.steppers import Noise, check_stability, make_step, max_stable_dt
 
 OVERFLOW = 1e15
 """Magnitude beyond which a value counts as blown up."""
@@ -121,11 +125,14 @@ def simulate(
             (``None`` for most models), ``None`` none, or ``(lo, hi)``.
         every: take a snapshot every ``every`` steps (and of the initial state); memory stays
             bounded by ``max_snapshots`` (older snapshots are thinned to every other one).
-        unsafe: skip the explicit stability check.
+        unsafe: skip the stability check and the early divergence detection (NaN, Inf and
+            overflow are still reported).
 
     Raises:
         UnstableTimeStepError: ``dt`` above the stability limit (unless ``unsafe``).
         BlowUpError: NaN/Inf/overflow, naming the first bad step and species.
+        DivergenceError: a growing checkerboard mode or values ``RANGE_FACTOR`` beyond the
+            starting scale, naming the step, species and a ``dt`` to retry with.
     """
     return _drive(
         model, domain, u0, params, batched=False, steps=steps, dt=dt, scheme=scheme,
@@ -197,6 +204,7 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
         shots.add(0, u)
     n_batch = u.shape[0] if batched else 1
     first_bad = np.zeros(n_batch, np.int64)
+    watch = None if unsafe else _Watch(model, domain, u, p, dt, scheme, batched)
     t = jnp.asarray(0.0, dtype)
     done = 0
     bar = ProgressBar(steps, enabled=progress, unit="step")
@@ -212,6 +220,13 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
         if newly.any() and not batched:
             bar.close()
             raise _locate_blowup(model, step, u_prev, p, t_prev, dt, key_prev, done - n, n)
+        if watch is not None:
+            diverging = watch.check(u)
+            newly = diverging.any(axis=1) & (first_bad == 0)
+            first_bad[newly] = done
+            if newly.any() and not batched:
+                bar.close()
+                raise watch.error(diverging[0], done, float(t))
         if shots and (done % every == 0 or done == steps):
             shots.add(done, u)
         bar.update(n)
@@ -247,6 +262,39 @@ def _locate_blowup(model, step, u, p, t, dt, key, offset: int, n: int) -> BlowUp
             names = tuple(s for s, b in zip(model.species, bad, strict=True) if b)
             return BlowUpError(offset + i + 1, names, float(t))
     return BlowUpError(offset + n, model.species, float(t))
+
+
+class _Watch:
+    """Early divergence detection between chunks (see :mod:`morphogen.stability`)."""
+
+    def __init__(self, model, domain, u0, p, dt: float, scheme: str, batched: bool):
+        self.model, self.domain, self.p = model, domain, p
+        self.dt, self.scheme, self.batched = dt, scheme, batched
+        self.scale = observed_scale(u0, model, p, batched)
+        self.on_grid = hasattr(domain, "laplacian")
+        self.prev = None
+        self.why = ""
+
+    def check(self, u: Array) -> np.ndarray:
+        """Species diverging now, shape ``(B, S)``."""
+        out, growing, grid = divergence_flags(u, self.scale, self.prev, self.batched,
+                                              self.on_grid)
+        if growing.any():
+            ratio = float(np.max(grid[growing] / self.prev[growing]))
+            self.why = f"a grid-scale (checkerboard) mode is growing (x{ratio:.3g} per check)"
+        elif out.any():
+            self.why = "values are orders of magnitude beyond the range the run started from"
+        self.prev = grid
+        return out | growing
+
+    def error(self, flags: np.ndarray, step: int, t: float) -> DivergenceError:
+        names = tuple(s for s, b in zip(self.model.species, flags, strict=True) if b)
+        try:
+            limit = max_stable_dt(self.model, self.domain, self.p, self.scheme)
+        except MorphogenError:
+            limit = float("inf")
+        suggested = limit if limit < self.dt else 0.5 * self.dt
+        return DivergenceError(step, names, t, self.why, suggested)
 
 
 class _Snapshots:

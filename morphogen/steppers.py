@@ -25,12 +25,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError, UnstableTimeStepError
-from morphogen.models.model import Array, Model, Params, Tensor
+from morphogen.models.model import Array, Model, Params
+from morphogen.stability import linear_limit
 
 SCHEMES = ("euler", "rk4")
-
-STABILITY_INTERVAL = {"euler": 2.0, "rk4": 2.785}
-"""Extent of each scheme's stability region along the negative real axis (``|lambda dt|``)."""
 
 
 @dataclass(frozen=True)
@@ -125,32 +123,17 @@ def _noise_mask(model: Model, noise: Noise | None) -> np.ndarray:
 def max_stable_dt(
     model: Model, domain: Any, params: Params, scheme: str = "euler", *, batched: bool = False
 ) -> float:
-    """Largest stable explicit ``dt`` for the diffusion part.
+    """Largest stable explicit ``dt``: diffusion and the reaction's linearisation.
 
-    For the 5-point stencil and Euler this is ``dt <= dx^2 / (2 * dims * D_max)``; in general
-    ``dt <= c / (rho(L) * D_max)`` with ``rho(L)`` the spectral radius of the discrete Laplacian
-    and ``c`` the stability interval of the scheme (2 for Euler, 2.785 for RK4); with
-    ``batched`` every parameter has a leading batch axis and the bound is over all members.
-    Anisotropic tensors use their largest eigenvalue
-    ``max((D_xx + D_yy) / 2 + sqrt(((D_xx - D_yy) / 2)^2 + D_xy^2))``.
+    For pure diffusion with the 5-point stencil and Euler the marginal step is
+    ``dx^2 / (2 * dims * D_max)``; in general every decaying eigenvalue ``lambda`` of
+    ``J - sigma diag(D)`` (``J`` the reaction Jacobian at the ground state, ``0 <= sigma <=
+    rho(L)``) must satisfy ``|R(lambda dt)| <= 1``, and the result keeps a safety margin of
+    :data:`morphogen.stability.SAFETY` below the marginal value (see
+    :mod:`morphogen.stability`). With ``batched`` every parameter has a leading batch axis and
+    the bound is over all members. Anisotropic tensors use their largest eigenvalue.
     """
-    coords = {**domain.coords, "t": 0.0}
-    p = {k: jnp.asarray(v) for k, v in params.items()}
-    if batched:
-        coeffs = jax.vmap(lambda q: tuple(model.diffusion(q, coords)))(p)
-    else:
-        coeffs = model.diffusion(p, coords)
-    d_max = max(_coefficient_bound(d) for d in coeffs)
-    if d_max <= 0:
-        return float("inf")
-    return STABILITY_INTERVAL[scheme] / (domain.spectral_radius() * d_max)
-
-
-def _coefficient_bound(d: Any) -> float:
-    if isinstance(d, Tensor):
-        xx, xy, yy = (np.asarray(c, np.float64) for c in d)
-        return float(np.max(0.5 * (xx + yy) + np.sqrt((0.5 * (xx - yy)) ** 2 + xy**2)))
-    return float(np.max(np.abs(np.asarray(d, np.float64))))
+    return linear_limit(model, domain, params, scheme, batched=batched)
 
 
 def check_stability(

@@ -160,8 +160,10 @@ def test_unwritable_output_directory(tmp_path):
 
 
 def test_blow_up_is_reported_with_step(tmp_path):
+    # dt = 1 is beyond the linearised limit at these parameters: only --unsafe runs it
     result = run_cli("simulate", "gray-scott", "--size", "16x16", "--steps", "400",
-                     "-p", "F=5", "-p", "k=-3", "--out", str(tmp_path / "o"))
+                     "-p", "F=5", "-p", "k=-3", "--dt", "1", "--unsafe",
+                     "--out", str(tmp_path / "o"))
     assert result.returncode == 2
     assert "blow-up at step" in result.stderr
     assert not (tmp_path / "o" / "state.npz").exists()

@@ -194,7 +194,7 @@ def brusselator() -> Model:
     """
     return Model(
         name="brusselator",
-        dt=0.0125, t_end=60.0, init="noise",
+        dt=0.01, t_end=60.0, init="noise",
         species=("u", "v"),
         params={"a": 4.5, "b": 7.5, "Du": 2.0, "Dv": 16.0},
         reaction=_brusselator_reaction,
