@@ -104,7 +104,7 @@ def strategy_from_args(args: argparse.Namespace) -> dict:
         spec.update(elitism=args.elitism, tournament=args.tournament)
     elif args.strategy == "cmaes":
         spec["sigma_init"] = args.sigma_init
-    else:
+    elif args.strategy == "gradient":
         spec["learning_rate"] = args.learning_rate
     return spec
 
@@ -121,8 +121,15 @@ def run(args: argparse.Namespace) -> int:
     if args.resume:
         run_id, archive = resolve_run(args.resume, args.archive)
         config = archive.run(run_id)["config"]
-        problem = Problem.from_dict(config["problem"])
-        gradient = STRATEGIES[config["strategy"]["name"]].needs_gradient
+        try:
+            problem = Problem.from_dict(config["problem"])
+            gradient = STRATEGIES[config["strategy"]["name"]].needs_gradient
+        except MorphogenError:
+            raise
+        except (KeyError, TypeError, ValueError, AttributeError):
+            raise MorphogenError(
+                f"run {run_id} has a damaged stored configuration; it cannot be resumed"
+            ) from None
         executor = make_executor(args.executor, problem, gradient=gradient, **options_for)
     else:
         problem = problem_from_args(args)

@@ -24,8 +24,8 @@ import os
 import secrets
 import sqlite3
 import time
-from collections.abc import Sequence
-from contextlib import closing
+from collections.abc import Iterator, Sequence
+from contextlib import closing, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -116,8 +116,20 @@ class Archive:
                     "--archive PATH"
                 )
             self.path.parent.mkdir(parents=True, exist_ok=True)
-        with closing(self._connect()) as db, db:
+        with self._db() as db, db:
             db.executescript(_SCHEMA)
+
+    @contextmanager
+    def _db(self) -> Iterator[sqlite3.Connection]:
+        """A connection, closed afterwards; a damaged database file is a one-line error."""
+        with closing(self._connect()) as db:
+            try:
+                yield db
+            except sqlite3.DatabaseError as exc:
+                raise MorphogenError(
+                    f"run archive {self.path} is damaged ({exc}); restore it from a backup or "
+                    "move it aside and start a new one"
+                ) from None
 
     def _connect(self) -> sqlite3.Connection:
         try:
@@ -139,7 +151,7 @@ class Archive:
             config["strategy"]["name"], problem["fitness"], config["strategy"]["population"],
             config["generations"], config["seed"], "running", json.dumps(config),
         )
-        with closing(self._connect()) as db, db:
+        with self._db() as db, db:
             db.execute("INSERT INTO runs VALUES (?,?,?,?,?,?,?,?,?,?,?)", row)
 
     def record_generation(self, run_id: str, g: Generation) -> None:
@@ -153,7 +165,7 @@ class Archive:
              int(g.valid[i]), g.images[i])
             for i, genome in enumerate(np.asarray(g.genomes, np.float64))
         ]
-        with closing(self._connect()) as db, db:
+        with self._db() as db, db:
             db.execute("DELETE FROM individuals WHERE run_id=? AND gen=?", (run_id, g.gen))
             db.execute(
                 "INSERT OR REPLACE INTO generations VALUES (?,?,?,?,?,?,?,?,?)",
@@ -163,7 +175,7 @@ class Archive:
             db.executemany("INSERT INTO individuals VALUES (?,?,?,?,?,?,?)", rows)
 
     def set_status(self, run_id: str, status: str) -> None:
-        with closing(self._connect()) as db, db:
+        with self._db() as db, db:
             db.execute("UPDATE runs SET status=? WHERE id=?", (status, run_id))
 
     # --- reading ----------------------------------------------------------------------------
@@ -174,7 +186,7 @@ class Archive:
             SELECT r.*, COUNT(g.gen) AS done, MAX(g.best) AS best
             FROM runs r LEFT JOIN generations g ON g.run_id = r.id
             GROUP BY r.id ORDER BY r.created DESC"""
-        with closing(self._connect()) as db:
+        with self._db() as db:
             return [dict(row) for row in db.execute(query)]
 
     def run(self, ref: str | os.PathLike) -> dict[str, Any]:
@@ -183,7 +195,7 @@ class Archive:
         Raises:
             MorphogenError: no such run.
         """
-        with closing(self._connect()) as db:
+        with self._db() as db:
             row = db.execute("SELECT * FROM runs WHERE id=?", (str(ref),)).fetchone()
             if row is None and Path(ref).is_dir():
                 row = db.execute("SELECT * FROM runs WHERE dir=?",
@@ -193,20 +205,20 @@ class Archive:
                 f"no run {str(ref)!r} in the archive {self.path}; `morphogen runs` lists them"
             )
         out = dict(row)
-        out["config"] = json.loads(out["config"])
+        out["config"] = _stored_config(out["config"], self.path, out["id"])
         return out
 
     def generations(self, run_id: str) -> list[dict[str, Any]]:
         """Recorded generations of a run in order (without the state blobs)."""
         query = ("SELECT gen, best, mean, best_so_far, valid, seconds, sheet FROM generations "
                  "WHERE run_id=? ORDER BY gen")
-        with closing(self._connect()) as db:
+        with self._db() as db:
             return [dict(row) for row in db.execute(query, (run_id,))]
 
     def last_state(self, run_id: str) -> tuple[int, dict[str, np.ndarray]] | None:
         """``(gen, strategy state arrays)`` of the last recorded generation, or ``None``."""
         query = "SELECT gen, state FROM generations WHERE run_id=? ORDER BY gen DESC LIMIT 1"
-        with closing(self._connect()) as db:
+        with self._db() as db:
             row = db.execute(query, (run_id,)).fetchone()
         return None if row is None else (int(row["gen"]), _unpack(row["state"]))
 
@@ -217,7 +229,7 @@ class Archive:
         if gen is not None:
             query += " AND gen=?"
             args = (run_id, gen)
-        with closing(self._connect()) as db:
+        with self._db() as db:
             rows = [dict(row) for row in db.execute(query + " ORDER BY gen, idx", args)]
         for row in rows:
             row["genome"] = json.loads(row["genome"])
@@ -228,7 +240,7 @@ class Archive:
         query = ("SELECT * FROM individuals WHERE run_id=? AND fitness IS NOT NULL "
                  "ORDER BY fitness DESC, gen, idx")
         out, seen = [], set()
-        with closing(self._connect()) as db:
+        with self._db() as db:
             for row in db.execute(query, (run_id,)):
                 if row["genome"] in seen:
                     continue
@@ -254,5 +266,36 @@ def _pack(arrays: dict[str, np.ndarray]) -> bytes:
 
 
 def _unpack(blob: bytes) -> dict[str, np.ndarray]:
-    with np.load(io.BytesIO(blob)) as data:
-        return {k: data[k] for k in data.files}
+    import zipfile
+
+    try:
+        with np.load(io.BytesIO(blob), allow_pickle=False) as data:
+            return {k: data[k] for k in data.files}
+    except (OSError, ValueError, EOFError, KeyError, TypeError, AttributeError,
+            zipfile.BadZipFile):
+        raise MorphogenError(
+            "the archive's saved strategy state is damaged; the run cannot be resumed "
+            "from its last generation"
+        ) from None
+
+
+RUN_KEYS = {"seed": int, "generations": int, "strategy": dict, "problem": dict}
+"""Settings every stored run configuration has, with their types."""
+
+
+def _stored_config(text: Any, path: Path, run_id: str) -> dict[str, Any]:
+    """A run's stored configuration, checked to be an object with :data:`RUN_KEYS`."""
+    try:
+        config = json.loads(text)
+    except (TypeError, ValueError):
+        config = None
+    bad = not isinstance(config, dict) or any(
+        not isinstance(config.get(k), t) or isinstance(config.get(k), bool)
+        for k, t in RUN_KEYS.items()
+    )
+    if bad or not isinstance(config["strategy"].get("name"), str):
+        raise MorphogenError(
+            f"run {run_id} in the archive {path} has a damaged configuration; it cannot be "
+            "resumed or shown"
+        )
+    return config

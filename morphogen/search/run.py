@@ -33,12 +33,14 @@ from morphogen.search.executors import Executor
 from morphogen.search.fitness import human_fitness
 from morphogen.search.ga import GeneticAlgorithm
 from morphogen.search.gradient import GradientAscent, require_target
+from morphogen.search.mapelites import MapElites
 from morphogen.search.strategy import Strategy, state_from_arrays, state_to_arrays
 
 STRATEGIES: dict[str, type[Strategy]] = {
     "ga": GeneticAlgorithm,
     "cmaes": CMAES,
     "gradient": GradientAscent,
+    "map-elites": MapElites,
 }
 """Strategy classes by command-line name; options are their dataclass fields. ``gradient``
 needs ``fitness="target"`` and a :class:`~morphogen.search.executors.GradientExecutor`."""
@@ -170,6 +172,8 @@ def evolve(
             fitness = human_fitness(chosen, len(genomes)).astype(np.float32)
         sheet = report.write_sheet(directory, gen, rgb, fitness, title)
         told = {"gradient": metrics.get("gradient")} if strategy.needs_gradient else {}
+        if getattr(strategy, "needs_fields", False):
+            told["fields"] = metrics["fields"]
         state, m = strategy.tell(genomes, fitness, state, **told)
         seconds = time.perf_counter() - t0
         archive.record_generation(run_id, Generation(
@@ -200,7 +204,12 @@ def resolve_run(ref: str, archive_path: str | None = None) -> tuple[str, Archive
         except (OSError, ValueError, KeyError):
             raise MorphogenError(f"{config_file} is not a run configuration") from None
         archive = Archive(path, create=False)
-        archive.run(run_id)
+        recorded = Path(archive.run(run_id)["dir"])
+        if recorded.resolve() != Path(ref).resolve():
+            raise MorphogenError(
+                f"{ref} is a copy of run {run_id}, which the archive {archive.path} keeps at "
+                f"{recorded}; resume that directory instead"
+            )
         return run_id, archive
     if Path(ref).is_dir():
         raise MorphogenError(f"{ref} is a directory but holds no run ({CONFIG} missing)")
