@@ -249,6 +249,27 @@ def test_websocket_streams_frames(client):
     assert seen == [1, 2, 3]
 
 
+def test_show_redraws_a_painted_state_without_advancing_time(client):
+    """``show`` (what a paused page sends after a stroke or a reset) draws the state as it is:
+    the step count and time stay, and the painted cell appears in the picture."""
+    sid = new_session(client, init="uniform")["id"]
+    with client.websocket_connect(f"/api/live/{sid}/ws") as ws:
+        ws.send_text("next")
+        _, _, _, t0, steps0, *_ = HEADER.unpack(ws.receive_bytes()[: HEADER.size])
+        client.post(f"/api/live/{sid}/paint",
+                    json={"points": [[0.5, 0.5]], "radius": 0.05}).raise_for_status()
+        ws.send_text("show")
+        data = ws.receive_bytes()
+    w, h, _, t1, steps1, lo, hi, _ = HEADER.unpack(data[: HEADER.size])
+    assert (steps1, t1) == (steps0, t0)
+    pixels = np.frombuffer(data[HEADER.size:], np.uint8).reshape(h, w)
+    sim = sim_of(client, sid)
+    f = sim.state()[sim.show]
+    expected = np.clip(np.round((f - lo) * 255.0 / max(hi - lo, 1e-30)), 0, 255)
+    assert np.abs(pixels.astype(int) - expected).max() <= 1
+    assert pixels.min() != pixels.max()  # the stroke shows
+
+
 def test_slow_work_times_out_with_a_message():
     import anyio
 

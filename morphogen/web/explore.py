@@ -148,19 +148,21 @@ async def frame(request: Request, sid: str):
 
 @router.websocket("/{sid}/ws")
 async def stream(ws: WebSocket, sid: str):
-    """Frames on demand: each text message ``next`` is answered with one binary frame, or with
-    a JSON text message ``{"error": ...}`` when the simulation blew up or a frame failed."""
+    """Frames on demand: each text message ``next`` is answered with one binary frame (``show``:
+    the current state, time not advanced), or with a JSON text message ``{"error": ...}`` when
+    the simulation blew up or a frame failed."""
     await ws.accept()
     limits = ws.app.state.limits
     try:
         while True:
             msg = await ws.receive_text()
-            if msg != "next":
-                await ws.send_json({"error": "send 'next' to get a frame"})
+            if msg not in ("next", "show"):
+                await ws.send_json({"error": "send 'next' (or 'show') to get a frame"})
                 continue
             try:
                 sim = _sim(ws, sid)
-                f = await run_limited(sim.frame, limits.request_timeout_s, "a frame")
+                make = sim.frame if msg == "next" else sim.still
+                f = await run_limited(make, limits.request_timeout_s, "a frame")
             except MorphogenError as exc:
                 await ws.send_json({"error": str(exc), "gone": not _exists(ws, sid)})
                 continue

@@ -282,6 +282,21 @@ class LiveSim:
             return Frame(self.pixels, self.frames, float(self.t), self.total_steps,
                          float(self.lo), float(self.hi), self.compute_s)
 
+    def still(self) -> Frame:
+        """The current state as a picture, without advancing time (what the page shows after a
+        reset or a brush stroke while paused); the same colour scaling as :meth:`frame`."""
+        with self.lock:
+            self._touch()
+            f = np.asarray(self.u[self.show], np.float32)
+            self._scale()
+            self._follow(float(f.min()), float(f.max()))  # a stroke beyond the range shows
+            lo, hi = np.float32(self.lo), np.float32(self.hi)
+            scale = np.float32(255.0) / max(hi - lo, np.float32(1e-30)) if hi > lo else 0.0
+            self.pixels = np.clip(np.round((f - lo) * scale), 0, 255).astype(np.uint8)
+            self.frames += 1
+            return Frame(self.pixels, self.frames, float(self.t), self.total_steps,
+                         float(self.lo), float(self.hi), self.compute_s)
+
     def field(self) -> np.ndarray:
         """The shown species as a float array ``(n, n)``."""
         with self.lock:

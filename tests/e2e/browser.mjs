@@ -283,6 +283,21 @@ SCENARIOS.details = async (page) => {
   await page.waitForFunction((f) => window.morphogenExplore.frames > f && !window.morphogenExplore.inflight, f0);
   await page.waitForTimeout(300);
   const stepped = (await framesNow(page)) - f0;
+  // a brush stroke or a reset while paused is drawn without advancing time
+  const stepsNow = () => page.evaluate(() => window.morphogenExplore.last.steps);
+  const beforePaint = await stepsNow();
+  const f1 = await framesNow(page);
+  const box = await page.locator('#ex-canvas').boundingBox();
+  await page.mouse.move(box.x + box.width * 0.3, box.y + box.height * 0.3);
+  await page.mouse.down();
+  await page.mouse.move(box.x + box.width * 0.7, box.y + box.height * 0.3, { steps: 10 });
+  await page.mouse.up();
+  await page.waitForFunction((f) => window.morphogenExplore.frames > f && !window.morphogenExplore.inflight, f1);
+  await page.waitForTimeout(500);
+  const afterPaint = await stepsNow();
+  await reset(page, 'square');
+  const afterReset = await stepsNow();
+  const runLabel = await page.textContent('#ex-run');
   // choosing a preset keeps it shown in the menu
   await page.selectOption('#ex-preset', 'mazes');
   await page.waitForFunction(() => Math.abs(window.morphogenExplore.state.params.F - 0.029) < 1e-9);
@@ -298,7 +313,7 @@ SCENARIOS.details = async (page) => {
   await page.press(num, 'Enter');
   const maxBack = await rangeMax();
   const rendering = await page.evaluate(() => getComputedStyle(document.getElementById('ex-canvas')).imageRendering);
-  return { hiddenShown, running, stepped, preset, maxBefore, maxAt50, maxBack, rendering,
+  return { hiddenShown, running, stepped, beforePaint, afterPaint, afterReset, runLabel, preset, maxBefore, maxAt50, maxBack, rendering,
     presetAfterEdit: await page.inputValue('#ex-preset') };
 };
 

@@ -160,12 +160,15 @@ def test_mesh_page_grows_and_rotates_a_flower(server):
 
 def test_hidden_elements_keys_presets_and_slider_ranges(server):
     """Web-app details: hidden controls stay hidden (page CSS must not override ``hidden``),
-    Space/S drive the simulation, a chosen preset stays shown until a parameter changes, a
+    Space/S drive the simulation, strokes and resets while paused do not advance time, a
+    chosen preset stays shown until a parameter changes, a
     typed value widens the slider only while it needs to, the canvas scales by pixels."""
     data = scenario(server, "details")
     assert data["hiddenShown"] == {"atlas": [], "evolve": [], "mesh": []}
     assert data["running"] == [True, False]
     assert data["stepped"] == 1
+    assert data["afterPaint"] == data["beforePaint"] > 0, "painting while paused advanced time"
+    assert data["afterReset"] == 0 and data["runLabel"] == "Run"
     assert data["preset"] == "mazes" and data["presetAfterEdit"] == ""
     assert data["maxAt50"] == 50 and data["maxBack"] == data["maxBefore"] < 50
     assert data["rendering"] == "pixelated"

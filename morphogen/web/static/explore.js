@@ -280,7 +280,7 @@ export class Explore {
       });
       this.state = res;
       showError(this.$('ex-error'), '');
-      if (!this.running) this.request(true); // show the new start while paused
+      if (!this.running) this.request(true, true); // show the new start while paused
     } catch (err) { this.fail(err); }
   }
 
@@ -311,12 +311,12 @@ export class Explore {
     this.ws = ws;
   }
 
-  // ask for the next frame (while running, or once with force)
-  request(force = false) {
+  // ask for the next frame (while running, or once with force; still: redraw, no steps)
+  request(force = false, still = false) {
     const ws = this.ws;
     if (!(this.running || force) || !this.visible || this.inflight || !ws || ws.readyState !== WebSocket.OPEN) return;
     this.inflight = true;
-    ws.send('next');
+    ws.send(still ? 'show' : 'next');
   }
 
   onMessage(data) {
@@ -406,7 +406,7 @@ export class Explore {
         body: { points, radius: Number(this.$('ex-brush').value), mode: this.$('ex-paint-mode').value },
       });
       showError(this.$('ex-error'), '');
-      if (!this.running) this.request(true); // show the stroke while paused
+      if (!this.running) this.request(true, true); // show the stroke while paused
     } catch (err) { this.fail(err); }
   }
 
