@@ -53,6 +53,8 @@ def test_veins_stage_feeds_later_stages(tmp_path):
     ("kind = 'veins'\nseeds = 'throat'\npoints = 2.5\n", "points must be an integer"),
     ("kind = 'veins'\nseeds = 'where(x > 9, 1, 0)'\n", "select no vertex"),
     ("kind = 'veins'\nseeds = 'throat'\nkill = 0.001\n", "step < kill"),
+    ("kind = 'veins'\nseeds = 'throat'\ndensity = 'nofield'\n", "nofield"),
+    ("kind = 'veins'\nseeds = 'throat'\nshow = 'nofield'\n", "nofield"),
 ])
 def test_bad_veins_stages(tmp_path, stage, message):
     path = tmp_path / "p.toml"
@@ -121,3 +123,14 @@ def test_dianthus_example_at_reduced_size(tmp_path):
     assert np.median(m[ahead & vein]) > 10 * np.median(m[ahead & ~vein])
     assert m[(f["margin"] > 0.5) & (f["s"] > 0.8)].max() < 0.05  # stopped before the margin
     assert np.allclose(f["pigment"], 1 / (1 + np.exp(-(m - 0.3) / 0.03)))
+
+
+def test_overlay_veins_mixes_by_thickness():
+    from morphogen.render.mesh import overlay_veins
+
+    base = np.full((3, 3), 0.5)
+    out = overlay_veins(base, np.array([0.0, 1.0, 1.0]), np.array([0.0, 1.0, 2.0]),
+                        colour="#000000")
+    # off veins unchanged; weight 0.6 + 0.4 t / t_max towards black on veins
+    assert out.dtype == np.uint8
+    assert np.allclose(out, [[127.5] * 3, [255 * 0.5 * 0.2] * 3, [0] * 3], atol=0.51)
