@@ -73,3 +73,28 @@ def test_map_elites_needs_fields_and_valid_settings():
         MapElites(population_size=4, descriptors=("colour",))
     with pytest.raises(MorphogenError, match="ranges"):
         MapElites(population_size=4, descriptors=("euler",))
+
+
+def test_evolve_map_elites_end_to_end(tmp_path):
+    from morphogen.cli.main import main
+    from morphogen.search.archive import Archive
+    from morphogen.search.strategy import state_from_arrays
+
+    db = tmp_path / "index.sqlite"
+    assert main(["evolve", "gray-scott", "--size", "24", "--dt", "0.5", "--steps", "120",
+                 "--init", "skaggs", "--preset", "skaggs-table-3.1", "--population", "6",
+                 "--strategy", "map-elites", "--generations", "3", "--seed", "2", "--quiet",
+                 "--archive", str(db), "--out", str(tmp_path / "run")]) == 0
+    archive = Archive(db)
+    run_id = archive.runs()[0]["id"]
+    me = MapElites(population_size=6)
+    genes = [Gene(g["name"], g["low"], g["high"], g["sigma"])
+             for g in archive.run(run_id)["config"]["problem"]["genes"]]
+    gen, arrays = archive.last_state(run_id)
+    state = state_from_arrays(me.init(jax.random.PRNGKey(0), genes), arrays)
+    assert gen == 3
+    elites = np.asarray(state.inner.fitness)
+    filled = np.isfinite(elites)
+    assert 1 <= filled.sum() <= 18
+    # the best elite is the best individual the run ever evaluated
+    assert elites[filled].max() == pytest.approx(archive.best(run_id, 1)[0]["fitness"])
