@@ -170,7 +170,9 @@ const SCENARIOS = {
     await page.waitForTimeout(1500);
     await page.screenshot({ path: join(out, 'atlas-to-explore.png') });
     const params = await page.evaluate(() => window.morphogenExplore.state.params);
-    return { x: res.x, y: res.y, valid: res.valid, params };
+    const size = await page.evaluate(() => window.morphogenExplore.state.size);
+    return { x: res.x, y: res.y, valid: res.valid, params, size, tile: res.tile,
+      sizeShown: await page.inputValue('#ex-size') };
   },
 
   async evolve(page) {

@@ -139,6 +139,8 @@ def test_atlas_tile_opens_in_explore(server):
     assert np.asarray(data["valid"]).shape == (6, 6)
     assert data["params"]["F"] == pytest.approx(data["y"]["values"][-1])
     assert data["params"]["k"] == pytest.approx(data["x"]["values"][1])
+    # the tile's own grid, so Explore grows the pattern the tile showed; the Grid box shows it
+    assert data["size"] == data["tile"] == 32 and data["sizeShown"] == "32"
 
 
 def test_two_tabs_have_their_own_simulations(server):

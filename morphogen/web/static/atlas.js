@@ -147,6 +147,6 @@ export class Atlas {
     if (!t) return;
     const res = this.result;
     const params = { ...res.params, [res.x.name]: t.x, [res.y.name]: t.y };
-    this.app.openInExplore({ model: res.model, params, init: res.init, seed: res.seed });
+    this.app.openInExplore({ model: res.model, params, init: res.init, seed: res.seed, size: res.tile });
   }
 }

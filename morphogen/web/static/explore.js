@@ -128,7 +128,11 @@ export class Explore {
     this.$('ex-steps').value = String(state.steps_per_frame);
     this.$('ex-init').value = state.init;
     this.$('ex-seed').value = state.seed;
-    this.$('ex-size').value = String(state.size);
+    const sizes = this.$('ex-size');
+    if (![...sizes.options].some((o) => o.value === String(state.size))) {
+      sizes.add(new Option(`${state.size} × ${state.size}`, String(state.size)), 0);
+    }
+    sizes.value = String(state.size);
     this.$('ex-cmap').value = state.cmap;
     this.setDt(state.dt, state.dt_max);
     this.lut = await colourTable(state.cmap);
