@@ -54,7 +54,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     veins.add_argument("--influence", type=float, help="influence radius (mesh units)")
     veins.add_argument("--kill", type=float, help="kill distance (mesh units)")
     veins.add_argument("--step", type=float, help="growth step (mesh units)")
-    veins.add_argument("--iterations", type=int, default=400, help="at most (400)")
+    veins.add_argument("--iterations", type=int, default=400, help="most growth steps (400)")
     veins.add_argument("--density", metavar="EXPR",
                        help="acceptance probability of attraction points, from fields")
     veins.add_argument("--seed", type=int, default=0, help="random seed (0)")
