@@ -315,7 +315,13 @@ SCENARIOS.details = async (page) => {
   await page.press(num, 'Enter');
   const maxBack = await rangeMax();
   const rendering = await page.evaluate(() => getComputedStyle(document.getElementById('ex-canvas')).imageRendering);
-  return { hiddenShown, running, stepped, beforePaint, afterPaint, afterReset, runLabel, preset, maxBefore, maxAt50, maxBack, rendering,
+  // a lost connection says so (and reconnects)
+  await page.evaluate(() => window.morphogenExplore.ws.close());
+  await page.waitForSelector('#ex-error:not([hidden])');
+  const lost = await page.textContent('#ex-error');
+  const statsLost = await page.textContent('#ex-stats');
+  await page.waitForSelector('#ex-error', { state: 'hidden', timeout: 10000 });
+  return { lost, statsLost, hiddenShown, running, stepped, beforePaint, afterPaint, afterReset, runLabel, preset, maxBefore, maxAt50, maxBack, rendering,
     presetAfterEdit: await page.inputValue('#ex-preset') };
 };
 

@@ -174,3 +174,4 @@ def test_hidden_elements_keys_presets_and_slider_ranges(server):
     assert data["preset"] == "mazes" and data["presetAfterEdit"] == ""
     assert data["maxAt50"] == 50 and data["maxBack"] == data["maxBefore"] < 50
     assert data["rendering"] == "pixelated"
+    assert "lost the connection" in data["lost"] and "not answering" in data["statsLost"]

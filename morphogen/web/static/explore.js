@@ -306,11 +306,22 @@ export class Explore {
     const proto = window.location.protocol === 'https:' ? 'wss' : 'ws';
     const ws = new WebSocket(`${proto}://${window.location.host}/api/live/${this.sid}/ws`);
     ws.binaryType = 'arraybuffer';
-    ws.onopen = () => { this.inflight = false; this.request(); };
+    ws.onopen = () => {
+      this.inflight = false;
+      if (this.disconnected) showError(this.$('ex-error'), '');
+      this.disconnected = false;
+      this.request();
+    };
     ws.onmessage = (ev) => this.onMessage(ev.data);
     ws.onclose = () => {
       this.inflight = false;
-      if (this.ws === ws) setTimeout(() => this.openSocket(), 1000);
+      if (this.ws !== ws) return;
+      this.disconnected = true;
+      this.fps = 0;
+      this.fpsWindow = [];
+      this.$('ex-stats').textContent = 'no frames: the server is not answering';
+      showError(this.$('ex-error'), 'lost the connection to the server; reconnecting every second…');
+      setTimeout(() => this.openSocket(), 1000);
     };
     this.ws = ws;
   }
