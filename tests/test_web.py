@@ -222,8 +222,13 @@ def test_live_controls_are_bounded(client):
     r = client.post(f"/api/live/{sid}/paint", json={"points": [[2.0, 0.5]]})
     assert r.status_code == 400 and "x must be <= 1" in r.json()["error"]
     # raising a diffusion coefficient lowers dt below the new stability limit, with a notice
+    before = client.get(f"/api/live/{sid}").json()
+    chosen, du = before["dt"], before["params"]["Du"]
     r = client.post(f"/api/live/{sid}/params", json={"params": {"Du": 2.0}}).json()
     assert r["dt"] <= r["dt_max"] and r["notices"]
+    # ... and lowering it again restores the dt that was chosen
+    r = client.post(f"/api/live/{sid}/params", json={"params": {"Du": du}}).json()
+    assert r["dt"] == chosen and "back up" in r["notices"][0]
 
 
 def test_blow_up_is_reported_not_hung(client):

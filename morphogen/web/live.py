@@ -184,7 +184,7 @@ class LiveSim:
             self.engine, self.size, self.boundary = eng, size, boundary
             self.values = values
             self.show = model.species.index(model.display_species)
-            self.dt = self._default_dt()
+            self.dt = self.chosen_dt = self._default_dt()
             self.steps_per_frame = _default_steps(model, self.dt)
             self._install(u0, init, seed)
         return self.describe()
@@ -202,7 +202,7 @@ class LiveSim:
         with self.lock:
             self._touch()
             dt_max = self._dt_max()
-            self.dt = number(dt, "dt", 1e-6, dt_max)
+            self.dt = self.chosen_dt = number(dt, "dt", 1e-6, dt_max)
             return []
 
     def set_view(self, *, species: str | None = None, steps_per_frame: Any = None,
@@ -359,10 +359,15 @@ class LiveSim:
         return float(min(self.engine.model.dt, 0.95 * self._dt_max()))
 
     def _fit_dt(self) -> list[str]:
+        """Keep ``dt`` below the stability limit after a parameter change: lowered to 95 % of
+        the limit while the chosen ``dt`` is above it, back to the chosen one once it fits."""
         dt_max = self._dt_max()
-        if self.dt > dt_max:
-            self.dt = 0.95 * dt_max
+        before = self.dt
+        self.dt = self.chosen_dt if self.chosen_dt <= dt_max else 0.95 * dt_max
+        if self.dt < before:
             return [f"dt lowered to {self.dt:.4g} to stay below the stability limit {dt_max:.4g}"]
+        if self.dt > before:
+            return [f"dt back up to {self.dt:.4g}"]
         return []
 
     def _scale(self) -> tuple[np.float32, np.float32]:

@@ -211,6 +211,7 @@ export class Explore {
       this.updateLinks();
     } catch (err) {
       this.fail(err);
+      if (this.state) this.setDt(this.state.dt, this.state.dt_max); // a refused dt leaves the box
     } finally {
       this.sending = false;
     }
