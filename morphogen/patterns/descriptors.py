@@ -21,7 +21,8 @@ Spatial descriptors of the final field ``f`` (``c = (min f + max f) / 2`` is the
 - ``coherence``: the same coherence with ``J`` smoothed over a Gaussian window of width
   ``σ = λ/2`` and averaged, weighted by ``tr J``: high for stripes and labyrinths (locally
   parallel), low for spots (radial gradients).
-- ``covered``: the fraction of pixels above ``c``.
+- ``covered``: the fraction of pixels above ``c`` (none when the field is flat to within
+  ``10⁻⁶ max(1, max |f|)``, so rounding noise is not read as a pattern).
 - ``euler`` and ``spot_index``: the Euler characteristic ``χ`` (components minus holes) of
   ``{f > c}`` with 4-connectivity, exact from 2×2 pixel configurations on the torus (Gray 1971):
   ``χ = (n₁ − n₃ + 2 n_d) / 4`` with ``n₁``, ``n₃`` the windows holding one or three foreground
@@ -129,7 +130,9 @@ def describe(f: Array) -> dict[str, Array]:
     local = jnp.sum(_coherence(sxx, syy, sxy) * weight) / jnp.maximum(weight.sum(), _EPS)
     mxx, myy, mxy = jxx.mean(), jyy.mean(), jxy.mean()
     theta = jnp.mod(0.5 * jnp.arctan2(2.0 * mxy, mxx - myy), jnp.pi)
-    chi = euler_characteristic(f > (lo + hi) / 2.0)
+    flat = hi - lo <= 1e-6 * jnp.maximum(1.0, jnp.max(jnp.abs(f)))
+    mask = (f > (lo + hi) / 2.0) & ~flat
+    chi = euler_characteristic(mask)
     return {
         "level": jnp.max(jnp.abs(f)),
         "range": hi - lo,
@@ -140,7 +143,7 @@ def describe(f: Array) -> dict[str, Array]:
         "orientation": theta,
         "order": _coherence(mxx, myy, mxy),
         "coherence": local,
-        "covered": jnp.mean(f > (lo + hi) / 2.0),
+        "covered": jnp.mean(mask),
         "euler": chi,
         "spot_index": chi * wavelength**2 / (h * w),
         "grid_energy": jnp.sum(jnp.where(grid, power, 0.0)) / total,
