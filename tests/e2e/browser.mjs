@@ -325,6 +325,35 @@ SCENARIOS.details = async (page) => {
     presetAfterEdit: await page.inputValue('#ex-preset') };
 };
 
+// every control inside the sidebar (nothing cut off at its right edge)
+const overflowing = (page, selector) => page.evaluate((sel) => {
+  const box = document.querySelector(sel).getBoundingClientRect();
+  return [...document.querySelectorAll(`${sel} select, ${sel} input, ${sel} button`)]
+    .filter((e) => e.offsetParent && e.getBoundingClientRect().right > box.right + 1)
+    .map((e) => e.id || e.tagName);
+}, selector);
+
+SCENARIOS.layout = async (page) => {
+  await page.goto(`${base}#evolve`);
+  await page.waitForFunction(() => Number(document.getElementById('ev-population')?.value) > 0);
+  const evolveDesktop = await overflowing(page, '#ev-controls');
+  await page.setViewportSize({ width: 390, height: 844 });
+  const width = {};
+  for (const name of ['explore', 'atlas', 'evolve', 'runs', 'mesh']) {
+    await page.goto(`${base}#${name}`);
+    await page.waitForSelector(`#page-${name}:not([hidden])`);
+    if (name === 'explore') await page.waitForFunction(() => window.morphogenExplore?.frames >= 2, null, { timeout: 60000 });
+    await page.waitForTimeout(400);
+    width[name] = await page.evaluate(() => document.documentElement.scrollWidth);
+    await page.screenshot({ path: join(out, `phone-${name}.png`), fullPage: true });
+  }
+  await page.goto(`${base}#explore`);
+  await page.waitForFunction(() => window.morphogenExplore?.frames >= 2, null, { timeout: 60000 });
+  const canvas = await page.locator('#ex-canvas').boundingBox();
+  const controls = await page.locator('#page-explore .controls').boundingBox();
+  return { evolveDesktop, width, canvasWidth: canvas.width, stacked: controls.y + controls.height <= canvas.y + 1 };
+};
+
 const browser = await chromium.launch({
   executablePath: process.env.MORPHOGEN_CHROMIUM || '/usr/bin/chromium',
   args: ARGS,

@@ -175,3 +175,12 @@ def test_hidden_elements_keys_presets_and_slider_ranges(server):
     assert data["maxAt50"] == 50 and data["maxBack"] == data["maxBefore"] < 50
     assert data["rendering"] == "pixelated"
     assert "lost the connection" in data["lost"] and "not answering" in data["statsLost"]
+
+
+def test_layout_fits_a_phone_and_the_evolve_sidebar(server):
+    """At 390 x 844 the sidebar stacks above the picture and no page is wider than the screen;
+    at desktop size every Evolve control fits inside its sidebar."""
+    data = scenario(server, "layout")
+    assert data["evolveDesktop"] == []
+    assert all(w <= 390 for w in data["width"].values()), data["width"]
+    assert data["stacked"] and data["canvasWidth"] >= 300

@@ -40,9 +40,10 @@ export class Evolve {
     fillSelect(u.fitness, [['user', 'choose favourites (Skaggs eq. 3.9)'], ['dirichlet', 'automatic: modified Dirichlet energy']], 'user');
     fillSelect(u.strategy, [['ga', 'genetic algorithm'], ['cmaes', 'CMA-ES']], 'ga');
     const row = (label, input) => el('label', {}, label, input);
+    const stacked = (label, input) => el('label', { class: 'stack' }, label, input);
     c.append(
       el('fieldset', {}, el('legend', { text: 'Model' }), u.model),
-      el('fieldset', {}, el('legend', { text: 'Search' }), row('Fitness', u.fitness), row('Strategy', u.strategy),
+      el('fieldset', {}, el('legend', { text: 'Search' }), stacked('Fitness', u.fitness), stacked('Strategy', u.strategy),
         row('Population', u.population), row('Generations', u.generations), row('Seed', u.seed)),
       el('fieldset', {}, el('legend', { text: 'Simulation' }), row('Grid', u.size), row('Steps', u.steps), row('dt', u.dt)),
       el('fieldset', {}, el('legend', { text: 'Genes (searched parameters)' }), u.genes),
