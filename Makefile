@@ -6,7 +6,7 @@ LOCK := requirements.lock
 # Installs take the exact versions the suite last passed with; `make upgrade` moves them on.
 CONSTRAINTS ?= -c $(LOCK)
 
-.PHONY: demo test bench lint clean serve lock upgrade fuzz
+.PHONY: demo test bench lint clean serve lock upgrade fuzz flowers
 
 $(STAMP): pyproject.toml $(LOCK)
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -25,6 +25,9 @@ upgrade:
 
 demo: $(STAMP)
 	$(BIN)/python -m morphogen.demo --out out/demo
+
+flowers: $(STAMP)
+	$(BIN)/morphogen gallery flowers --out out/flowers
 
 lint: $(STAMP)
 	$(BIN)/ruff check morphogen tests bench fuzz

@@ -23,6 +23,7 @@ COMMANDS = (
     "morphogen.cli.runs_cmd",
     "morphogen.cli.mesh_cmd",
     "morphogen.cli.pipeline_cmd",
+    "morphogen.cli.gallery_cmd",
     "morphogen.cli.train_cmd",
     "morphogen.cli.fit_cmd",
 )

@@ -1,0 +1,171 @@
+"""``morphogen gallery flowers [--out DIR] [--only NAME...]``: every flower case study, one page.
+
+Each flower pipeline (Ringham et al. 2021, §4) under ``examples/flowers/*.toml``, plus the two
+older mesh pipelines ``examples/mimulus-mesh-pipeline.toml`` (§4.5) and
+``examples/kohleria-mesh-pipeline.toml`` (§4.7), is run into ``DIR/NAME/`` with
+:func:`morphogen.pipeline.run_pipeline`; ``DIR/index.html`` shows the last stage's picture of
+each with its name and section. A file that is not a pipeline (a model file such as
+``dianthus-diffusion.toml``, which has no ``[mesh]`` table) is not a flower and is skipped. A
+flower that fails is reported in one line and left off the page; the others still run, and the
+command exits with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+import time
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from morphogen.errors import MorphogenError
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+"""The repository's ``examples/`` directory."""
+
+_EXTRA = ("mimulus-mesh-pipeline.toml", "kohleria-mesh-pipeline.toml")
+_SECTION = re.compile(r"§\s*(\d+(?:\.\d+)*)")
+_KNOWN_SECTIONS = {"mimulus": "4.5", "kohleria": "4.7"}
+
+
+@dataclass(frozen=True)
+class Flower:
+    """One case study: its short name, pipeline file and Ringham et al. section (or None)."""
+
+    name: str
+    path: Path
+    section: str | None
+
+    @property
+    def caption(self) -> str:
+        return f"{self.name} (Ringham §{self.section})" if self.section else self.name
+
+
+def _is_pipeline(path: Path) -> bool:
+    try:
+        data = tomllib.loads(path.read_text())
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError):
+        return True  # let the pipeline loader report it as that flower's error
+    return isinstance(data.get("mesh"), dict) and "stage" in data
+
+
+def _section(path: Path, name: str) -> str | None:
+    """The first ``§N.M`` in the file's leading comment block, else a known section."""
+    header = []
+    for line in path.read_text(errors="replace").splitlines():
+        if not line.startswith("#"):
+            break
+        header.append(line)
+    found = _SECTION.search("\n".join(header))
+    return found.group(1) if found else _KNOWN_SECTIONS.get(name)
+
+
+def find_flowers(examples: Path = EXAMPLES) -> list[Flower]:
+    """The flower pipelines under ``examples``, sorted by section, then name."""
+    paths = sorted((examples / "flowers").glob("*.toml"))
+    paths += [examples / f for f in _EXTRA if (examples / f).is_file()]
+    flowers = []
+    for path in paths:
+        if not _is_pipeline(path):
+            continue
+        name = path.stem.removesuffix("-mesh-pipeline")
+        flowers.append(Flower(name, path, _section(path, name)))
+
+    def key(f: Flower) -> tuple:
+        sec = tuple(int(p) for p in f.section.split(".")) if f.section else (99,)
+        return sec, f.name
+
+    return sorted(flowers, key=key)
+
+
+def _select(flowers: list[Flower], only: list[str] | None) -> list[Flower]:
+    if not only:
+        return flowers
+    names = {f.name for f in flowers}
+    unknown = [n for n in only if n not in names]
+    if unknown:
+        raise MorphogenError(f"unknown flower {', '.join(unknown)}; choose from "
+                             f"{', '.join(f.name for f in flowers)}")
+    return [f for f in flowers if f.name in only]
+
+
+def _picture(flower_dir: Path) -> Path:
+    """The last stage's ``out.png`` of a finished pipeline directory."""
+    import json
+
+    record = json.loads((flower_dir / "pipeline.json").read_text())
+    for stage in reversed(record["stages"]):
+        png = flower_dir / stage["dir"] / "out.png"
+        if png.is_file():
+            return png
+    raise MorphogenError(f"{flower_dir} has no stage picture (out.png)")
+
+
+def run_gallery(out: str | Path, *, only: list[str] | None = None, examples: Path = EXAMPLES,
+                resume: bool = False) -> tuple[Path, list[str]]:
+    """Run the selected flowers into ``out/NAME/`` and write ``out/index.html``.
+
+    Returns the page and the one-line errors of the flowers that failed.
+    """
+    from morphogen.io import ensure_writable_dir
+    from morphogen.pipeline import load_pipeline, run_pipeline
+    from morphogen.render.gallery import write_gallery
+
+    flowers = _select(find_flowers(Path(examples)), only)
+    if not flowers:
+        raise MorphogenError(f"no flower pipelines in {Path(examples) / 'flowers'}")
+    out_dir = ensure_writable_dir(out)
+    items, errors = [], []
+    for i, flower in enumerate(flowers, 1):
+        print(f"[{i}/{len(flowers)}] {flower.caption}: {flower.path.name}", flush=True)
+        started = time.perf_counter()
+        try:
+            run_pipeline(load_pipeline(flower.path), out_dir / flower.name, resume=resume)
+            png = _picture(out_dir / flower.name)
+        except MorphogenError as exc:
+            errors.append(f"{flower.name}: {exc}")
+            print(f"  failed: {exc}", flush=True)
+            continue
+        items.append((png.relative_to(out_dir).as_posix(), flower.caption))
+        print(f"  done in {time.perf_counter() - started:.1f} s: {png.relative_to(out_dir)}",
+              flush=True)
+    page = write_gallery(out_dir, "Flowers: Ringham et al. (2021) case studies", items,
+                         intro=f"{len(items)} of {len(flowers)} flower pipelines from "
+                         f"{Path(examples)}; each picture is its pipeline's last stage.")
+    return page, errors
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("gallery", help="regenerate a gallery of example case studies",
+                       description="Run example pipelines and write an index.html of their "
+                       "pictures (see docs/flowers.md).")
+    kinds = p.add_subparsers(dest="gallery", metavar="KIND")
+    kinds.required = True
+    fl = kinds.add_parser("flowers", help="every flower case study (Ringham et al. §4) into "
+                          "DIR/NAME/ and DIR/index.html")
+    fl.add_argument("--out", default="out/flowers", metavar="DIR",
+                    help="output directory (default out/flowers)")
+    fl.add_argument("--only", nargs="+", metavar="NAME",
+                    help="run only these flowers (names as in the file names, e.g. dianthus)")
+    fl.add_argument("--examples", type=Path, default=EXAMPLES, metavar="DIR",
+                    help="where flowers/*.toml are (default: the repository's examples/)")
+    fl.add_argument("--resume", action="store_true",
+                    help="reuse stages already finished in DIR/NAME with the same settings")
+    fl.add_argument("--list", action="store_true", help="list the flowers and exit")
+    fl.set_defaults(func=run_gallery_cmd)
+
+
+def run_gallery_cmd(args: argparse.Namespace) -> int:
+    if args.list:
+        for flower in _select(find_flowers(args.examples), args.only):
+            print(f"{flower.name:<20} {('§' + flower.section) if flower.section else '-':<6} "
+                  f"{flower.path}")
+        return 0
+    page, errors = run_gallery(args.out, only=args.only, examples=args.examples,
+                               resume=args.resume)
+    print(f"wrote {page}")
+    for line in errors:
+        sys.stderr.write(f"morphogen: error: {line}\n")
+    return 2 if errors else 0
