@@ -382,3 +382,10 @@ def test_every_library_model_runs_live(client, name):
     f = frame(client, state["id"])
     assert f["steps"] == state["steps_per_frame"]
     assert np.isfinite(sim_of(client, state["id"]).state()).all()
+
+
+def test_mesh_limits_and_the_size_error_name_the_detail(client):
+    limits = client.get("/api/mesh/limits").json()
+    assert limits == {"size": [20.0, 240.0], "detail": [0.2, 1.5], "max_across": 160.0}
+    r = client.post("/api/mesh", json={"size": 200, "detail": 1.5})
+    assert r.status_code == 400 and "the size can be at most 106" in r.json()["error"]

@@ -54,6 +54,16 @@ def build_mesh(shape: str, petals: int, size: float, detail: float):
     return mesh.replace(vertices=np.asarray(mesh.vertices) * scale)
 
 
+SIZE_RANGE = (20.0, 240.0)
+DETAIL_RANGE = (0.2, 1.5)
+
+
+@router.get("/limits")
+async def limits() -> dict:
+    """The bounds the Mesh page checks before asking: size, detail and size x detail."""
+    return {"size": SIZE_RANGE, "detail": DETAIL_RANGE, "max_across": MAX_ACROSS}
+
+
 @router.post("")
 async def start(request: Request, body: JSONBody):
     """Validate a mesh request and queue it; returns ``{"job": id}``."""
@@ -63,12 +73,13 @@ async def start(request: Request, body: JSONBody):
     values = model.parameters(check_params(body.get("params"), model))
     shape = choice(body.get("shape", "corolla"), "shape", SHAPES)
     petals = integer(body.get("petals", 5), "petals", 2, 12)
-    size = number(body.get("size", 120), "size", 20, 240)
-    detail = number(body.get("detail", 0.7), "detail", 0.2, 1.5)
+    size = number(body.get("size", 120), "size", *SIZE_RANGE)
+    detail = number(body.get("detail", 0.7), "detail", *DETAIL_RANGE)
     if size * detail > MAX_ACROSS:
         raise MorphogenError(
             f"size x detail is {size * detail:g}; the server allows {MAX_ACROSS:g} "
-            "(about 18 000 vertices): lower the size or the detail"
+            f"(about 18 000 vertices): with detail {detail:g} the size can be at most "
+            f"{int(MAX_ACROSS / detail)}"
         )
     given_dt = body.get("dt")
     dt = model.dt if given_dt is None else number(given_dt, "dt", 1e-6, 1e3)

@@ -354,6 +354,20 @@ SCENARIOS.layout = async (page) => {
   return { evolveDesktop, width, canvasWidth: canvas.width, stacked: controls.y + controls.height <= canvas.y + 1 };
 };
 
+SCENARIOS.meshsize = async (page) => {
+  const posts = [];
+  page.on('request', (r) => { if (r.method() === 'POST' && r.url().endsWith('/api/mesh')) posts.push(r.url()); });
+  await page.goto(`${base}#mesh`);
+  await page.waitForSelector('#me-detail');
+  await page.fill('#me-detail', '1.5');
+  await page.dispatchEvent('#me-detail', 'input');
+  const max = await page.evaluate(() => Number(document.getElementById('me-size').max));
+  await page.fill('#me-size', '200');
+  await page.click('#me-go');
+  await page.waitForSelector('#page-mesh .error:not([hidden])');
+  return { max, error: await page.textContent('#page-mesh .error'), posts: posts.length };
+};
+
 const browser = await chromium.launch({
   executablePath: process.env.MORPHOGEN_CHROMIUM || '/usr/bin/chromium',
   args: ARGS,

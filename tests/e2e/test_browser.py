@@ -184,3 +184,11 @@ def test_layout_fits_a_phone_and_the_evolve_sidebar(server):
     assert data["evolveDesktop"] == []
     assert all(w <= 390 for w in data["width"].values()), data["width"]
     assert data["stacked"] and data["canvasWidth"] >= 300
+
+
+def test_mesh_page_has_a_detail_control_and_refuses_sizes_up_front(server):
+    """The Mesh page's Detail box bounds the Size box (size x detail <= 160, as the server
+    checks); a size beyond it is refused on the page, naming the largest allowed."""
+    data = scenario(server, "meshsize")
+    assert data["max"] == 106
+    assert "at most 106" in data["error"] and data["posts"] == 0

@@ -18,6 +18,8 @@ export class Mesh {
       shape: el('select', { id: 'me-shape' }),
       petals: el('input', { id: 'me-petals', type: 'number', min: 2, max: 12, value: 5 }),
       size: el('input', { id: 'me-size', type: 'number', min: 20, max: 240, value: 120 }),
+      detail: el('input', { id: 'me-detail', type: 'number', min: 0.2, max: 1.5, step: 0.1, value: 0.7,
+        title: 'vertices per unit length: more detail, finer triangles' }),
       steps: el('input', { id: 'me-steps', type: 'number', min: 1, placeholder: 'model default' }),
       cmap: el('select', { id: 'me-cmap' }),
       go: el('button', { id: 'me-go', type: 'button', class: 'primary', text: 'Grow pattern' }),
@@ -34,24 +36,52 @@ export class Mesh {
     const row = (label, input) => el('label', {}, label, input);
     this.root.append(el('div', { class: 'layout' },
       el('aside', { class: 'controls' },
-        el('fieldset', {}, el('legend', { text: 'Flower' }), row('Shape', u.shape), row('Petals', u.petals), row('Size', u.size)),
+        el('fieldset', {}, el('legend', { text: 'Flower' }), row('Shape', u.shape), row('Petals', u.petals), row('Size', u.size),
+          row('Detail', u.detail)),
         el('fieldset', {}, el('legend', { text: 'Pattern' }), row('Model', u.model), row('Steps', u.steps), row('Colours', u.cmap)),
         u.go),
       el('div', { class: 'stage' }, u.error, u.bar, u.message,
         u.canvas,
         el('p', { class: 'muted small', text: 'Drag to rotate, scroll to zoom. Below: the same state rendered on the server.' }), u.still)));
+    this.limits = await api('/api/mesh/limits');
+    u.detail.addEventListener('input', () => this.fitSize());
+    this.fitSize();
     u.go.addEventListener('click', () => this.grow());
     this.bindView();
   }
 
+  // the largest size the server accepts at this detail (size x detail <= max_across)
+  maxSize() {
+    const detail = Number(this.ui.detail.value);
+    return Math.min(this.limits.size[1], Math.floor(this.limits.max_across / detail));
+  }
+
+  fitSize() {
+    this.ui.size.max = this.maxSize();
+  }
+
+  // one line for a value the server would refuse, before anything is sent
+  checkInputs() {
+    const u = this.ui;
+    const [dlo, dhi] = this.limits.detail;
+    const detail = Number(u.detail.value);
+    if (!(detail >= dlo && detail <= dhi)) return `detail must be between ${dlo} and ${dhi}`;
+    const size = Number(u.size.value);
+    if (!(size >= this.limits.size[0])) return `size must be at least ${this.limits.size[0]}`;
+    if (size > this.maxSize()) return `with detail ${detail} the size can be at most ${this.maxSize()} (or lower the detail)`;
+    return '';
+  }
+
   async grow() {
     const u = this.ui;
-    showError(u.error, '');
+    const refused = this.checkInputs();
+    showError(u.error, refused);
+    if (refused) return;
     u.go.disabled = true;
     u.bar.hidden = false;
     const body = {
       model: { library: u.model.value }, shape: u.shape.value, petals: Number(u.petals.value),
-      size: Number(u.size.value), cmap: u.cmap.value,
+      size: Number(u.size.value), detail: Number(u.detail.value), cmap: u.cmap.value,
     };
     if (u.steps.value !== '') body.steps = Number(u.steps.value);
     try {
