@@ -388,9 +388,19 @@ def _check_name(name, kind, src, where) -> None:
         )
 
 
+MAX_MAGNITUDE = 1e30
+"""Largest magnitude of a number in a model file: float32 ends near 3.4e38, and a value beyond
+this leaves no room for the arithmetic (products, slider ranges) done with it."""
+
+
 def _number(value, what, src, where) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise src.error(f"{what} must be a number, got {value!r}", where)
+    if not abs(value) <= MAX_MAGNITUDE:
+        raise src.error(
+            f"{what} must be a finite number of magnitude at most {MAX_MAGNITUDE:g}, "
+            f"got {value!r}", where,
+        )  # fmt: skip
     return float(value)
 
 

@@ -9,12 +9,14 @@ keeps at most one frame in flight per tab; ``GET .../frame`` serves the same byt
 
 from __future__ import annotations
 
+import math
 import struct
 from typing import Any
 
 from fastapi import APIRouter, Request, WebSocket, WebSocketDisconnect
 from fastapi.responses import JSONResponse, Response
 
+from morphogen import guard
 from morphogen.errors import MorphogenError
 from morphogen.web import export
 from morphogen.web.limits import JSONBody, OptionalBody, integer, run_limited
@@ -155,7 +157,10 @@ async def stream(ws: WebSocket, sid: str):
     limits = ws.app.state.limits
     try:
         while True:
-            msg = await ws.receive_text()
+            message = await ws.receive()
+            if message["type"] == "websocket.disconnect":
+                return
+            msg = message.get("text")
             if msg not in ("next", "show"):
                 await ws.send_json({"error": "send 'next' (or 'show') to get a frame"})
                 continue
@@ -196,6 +201,10 @@ async def png(request: Request, sid: str, cmap: str | None = None, scale: int = 
 async def config(request: Request, sid: str, steps: int | None = None):
     """A run file that ``morphogen simulate --config FILE`` accepts (a download)."""
     sim = _sim(request, sid)
+    if steps is not None:
+        cells = math.prod(sim.engine.grid.spatial_shape)
+        guard.check_steps(integer(steps, "steps", 1, guard.LIMITS.steps), cells,
+                          len(sim.engine.model.species))
     data = export.run_config(sim, steps)
     return Response(data, media_type="application/json",
                     headers=_attachment(f"{sim.describe()['model']}-run.json"))
