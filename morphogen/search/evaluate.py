@@ -37,10 +37,11 @@ from morphogen.fields import resolve_params
 from morphogen.models.model import Model
 from morphogen.search import fitness as fit
 from morphogen.search.genes import Gene, check_genes
+from morphogen.search.networks.cluster import cluster_head_fitness
 from morphogen.simulate import integrate
 from morphogen.steppers import check_stability, make_step, max_stable_dt
 
-FITNESS_KINDS = ("dirichlet", "target", "user")
+FITNESS_KINDS = ("dirichlet", "target", "cluster", "user")
 CHUNK = 250
 """Steps per compiled chunk between progress updates."""
 
@@ -258,6 +259,9 @@ class Evaluator:
         if p.fitness == "target":
             target = fit.load_target(p.target, p.size)
             return jax.jit(fit.target_fitness(target, self.display, flat_tol=p.flat_tol))
+        if p.fitness == "cluster":
+            return jax.jit(cluster_head_fitness(species=self.display, normalise=True,
+                                                flat_tol=p.flat_tol))
         return jax.jit(lambda u: jnp.full(u.shape[:1], fit.FLAT, jnp.float32))
 
 

@@ -1,0 +1,111 @@
+"""The cluster-head task fitness (Yamamoto et al. §3.3, §4, Table 1).
+
+Every cell of a 2D state is one of four types, judged on the activator species ``a``:
+
+=========  ========================================================  ==============
+invalid    some species is NaN, ±Inf or ``|s| > s_max``              Φ = 0
+peak       valid, ``a > a_peak`` and ``a`` a local maximum            Φ = 0.5 if another
+           (``>=`` all 8 neighbours)                                  peak lies at distance
+                                                                      ``< d_max``, else 0.75
+alive      valid non-peak cell with a peak at distance ``<= d_max``   Φ = 1
+dead       valid non-peak cell with no peak that close                Φ = 0.25
+=========  ========================================================  ==============
+
+*Peak* follows §4 ("points of maximum activator concentration, above a peak threshold"): a
+local maximum over the 8-neighbourhood, ties allowed (a plateau of equal maxima is all peaks).
+*Distance* is Euclidean in cells on the periodic grid (a torus: offsets wrap around), the
+metric of the seed's periodic 32 × 32 surface. The pattern's task score is ``Σ Φ`` over cells,
+at most the number of cells (1024 on 32²).
+
+:func:`cluster_head_fitness` stages it (§3.3): a state with any invalid value scores
+:data:`~morphogen.search.fitness.INVALID`, a homogeneous one
+:data:`~morphogen.search.fitness.FLAT`, any other ``Σ Φ`` (``> 0``, since every valid cell
+scores at least 0.25), so invalid < flat < patterned. Neighbourhoods are static offset lists
+(``roll`` and ``or``), ``O(d_max² · cells)`` per state, no pairwise distance matrix.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import jax.numpy as jnp
+import numpy as np
+
+from morphogen.search.fitness import staged
+
+Array = Any
+
+S_MAX = 100.0
+A_PEAK = 3.0
+D_MAX = 6.0
+PHI_DEAD, PHI_PEAK_CROWDED, PHI_PEAK_ALONE, PHI_ALIVE = 0.25, 0.5, 0.75, 1.0
+
+
+def _offsets(radius: float, *, strict: bool, centre: bool) -> list[tuple[int, int]]:
+    r = int(np.floor(radius))
+    out = []
+    for dy in range(-r, r + 1):
+        for dx in range(-r, r + 1):
+            d2 = dy * dy + dx * dx
+            inside = d2 < radius * radius if strict else d2 <= radius * radius
+            if inside and (centre or d2 > 0):
+                out.append((dy, dx))
+    return out
+
+
+def _any_near(mask: Array, offsets: list[tuple[int, int]]) -> Array:
+    out = jnp.zeros_like(mask)
+    for dy, dx in offsets:
+        out = out | jnp.roll(mask, (dy, dx), axis=(0, 1))
+    return out
+
+
+def peaks(a: Array, a_peak: float = A_PEAK) -> Array:
+    """Bool ``(H, W)``: ``a > a_peak`` and ``a >= `` its 8 neighbours (periodic)."""
+    top = a > a_peak
+    for dy, dx in _offsets(1.5, strict=False, centre=False):
+        top = top & (a >= jnp.roll(a, (dy, dx), axis=(0, 1)))
+    return top
+
+
+def cell_fitness(u: Array, *, species: int = 0, a_peak: float = A_PEAK, d_max: float = D_MAX,
+                 s_max: float = S_MAX) -> Array:
+    """Φ per cell, shape ``(H, W)``, of one state ``u`` ``(S, H, W)``."""
+    valid = jnp.all(jnp.isfinite(u) & (jnp.abs(u) <= s_max), axis=0)
+    a = jnp.where(valid, u[species], -jnp.inf)
+    peak = peaks(a, a_peak) & valid
+    crowded = _any_near(peak, _offsets(d_max, strict=True, centre=False))
+    near = _any_near(peak, _offsets(d_max, strict=False, centre=True))
+    phi = jnp.where(near, PHI_ALIVE, PHI_DEAD)
+    phi = jnp.where(peak, jnp.where(crowded, PHI_PEAK_CROWDED, PHI_PEAK_ALONE), phi)
+    return jnp.where(valid, phi, 0.0).astype(jnp.float32)
+
+
+def cluster_head_score(u: Array, **options: float) -> Array:
+    """``Σ Φ`` over the cells of one state ``(S, H, W)`` (options as :func:`cell_fitness`)."""
+    return jnp.sum(cell_fitness(u, **options))
+
+
+def cluster_head_fitness(*, species: int = 0, a_peak: float = A_PEAK, d_max: float = D_MAX,
+                         s_max: float = S_MAX, normalise: bool = False,
+                         flat_tol: float = 1e-3) -> Callable[[Array], Array]:
+    """Staged cluster-head fitness of a population ``(P, S, H, W) -> (P,)``.
+
+    A state is invalid when any value is non-finite or beyond ``s_max``. ``normalise`` divides
+    ``Σ Φ`` by the number of cells, giving a score in ``(0, 1]`` like the other fitnesses of
+    :mod:`morphogen.search.fitness` (used when it serves an ordinary parameter search).
+    """
+
+    def score(u: Array) -> Array:
+        total = cluster_head_score(u, species=species, a_peak=a_peak, d_max=d_max, s_max=s_max)
+        return total / (u.shape[1] * u.shape[2]) if normalise else total
+
+    inner = staged(score, flat_tol)
+
+    def fitness(states: Array) -> Array:
+        ok = jnp.all(jnp.isfinite(states) & (jnp.abs(states) <= s_max),
+                     axis=tuple(range(1, states.ndim)))
+        return jnp.where(ok, inner(states), -1.0)
+
+    return fitness
