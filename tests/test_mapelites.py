@@ -64,6 +64,24 @@ def test_elites_are_replaced_only_by_fitter_genomes_of_their_cell():
     assert qd_score(state) == pytest.approx(float(np.sum(np.asarray(state.inner.fitness))))
 
 
+def test_offspring_are_mutated_elites_except_the_explored_share():
+    key = jax.random.PRNGKey(3)
+    for explore, near in ((0.0, 8), (0.5, 4)):
+        me = MapElites(population_size=8, descriptors=("spot_index",), bins=3, explore=explore)
+        state = me.init(key, GENES)
+        genomes, state = me.ask(key, state)
+        fields = np.concatenate([FIELDS, FIELDS])
+        state, _ = me.tell(genomes, np.arange(8, dtype=np.float32), state, fields=fields)
+        elites = np.asarray(state.inner.genomes)
+        children, _ = me.ask(jax.random.fold_in(key, 1), state)
+        # distance to the nearest elite in units of the genes' sigma (0.05, 0.1)
+        z = np.abs(np.asarray(children)[:, None] - elites[None]) / np.array([0.05, 0.1])
+        close = np.nanmin(z.max(axis=2), axis=1) < 5
+        assert close[:near].all()
+        if explore:
+            assert not close[near:].all()  # uniform draws over a box 20 and 40 sigmas wide
+
+
 def test_map_elites_needs_fields_and_valid_settings():
     me = MapElites(population_size=4)
     state = me.init(jax.random.PRNGKey(0), GENES)

@@ -3,7 +3,9 @@
 Skaggs (seed 000, §6.1) saw his GA trade the variety of generation 1 for one high-scoring kind of
 pattern. MAP-Elites (Mouret & Clune 2015) keeps an archive of elites, one per cell of a grid over
 pattern descriptors (:mod:`morphogen.patterns.descriptors`): each generation it mutates elites
-drawn uniformly from the filled cells (uniform samples while the archive is empty), evaluates
+drawn uniformly from the filled cells (uniform samples while the archive is empty, and for a
+share ``explore`` of every later batch, so that cells far from the elites keep being tried),
+evaluates
 them as one batch on the usual ``evaluate(genomes, key)`` path, and puts each evaluated genome in
 its cell if that cell is empty or its elite is less fit. An elite is only ever replaced by a
 strictly fitter genome of the same cell, so every cell's fitness never decreases.
@@ -61,12 +63,15 @@ class MapElites(Strategy):
         bins: bins per descriptor (``bins ** len(descriptors)`` cells).
         ranges: ``(lo, hi)`` per descriptor; default from :data:`RANGES`.
         mutation: scale of the genes' ``sigma`` for the Gaussian mutation of an elite.
+        explore: share of each batch drawn uniformly within the bounds once the archive holds
+            elites (the last ``round(explore * P)`` genomes).
     """
 
     descriptors: tuple[str, ...] = ("spot_index", "coherence")
     bins: int = 8
     ranges: tuple[tuple[float, float], ...] | None = None
     mutation: float = 1.0
+    explore: float = 0.25
 
     needs_fields: ClassVar[bool] = True
     """``tell`` needs ``fields``: the final display field of every genome, ``(P, H, W)``."""
@@ -94,6 +99,8 @@ class MapElites(Strategy):
         object.__setattr__(self, "ranges", ranges)
         if not self.mutation > 0:
             raise MorphogenError(f"map-elites mutation must be > 0, got {self.mutation}")
+        if not 0 <= self.explore <= 1:
+            raise MorphogenError(f"map-elites explore must be in [0, 1], got {self.explore}")
 
     @property
     def cell_count(self) -> int:
@@ -153,7 +160,9 @@ class MapElites(Strategy):
         mutated = (jnp.nan_to_num(inner.genomes[parents])
                    + self.mutation * state.sigma * jax.random.normal(k_noise, (p, g)))
         uniform = jax.random.uniform(k_uniform, (p, g), minval=state.low, maxval=state.high)
-        return jnp.where(filled.any(), mutated, uniform), inner
+        fresh = jnp.arange(p) >= p - round(self.explore * p)
+        use_elite = filled.any() & ~fresh
+        return jnp.where(use_elite[:, None], mutated, uniform), inner
 
     def _tell(self, genomes: Array, fitness: Array, state: State) -> MapElitesState:
         inner = state.inner
