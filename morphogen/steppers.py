@@ -5,8 +5,9 @@ deterministic right-hand side is
 
 .. math:: f(u) = R(u, p, x, t) + \\nabla\\cdot(D\\nabla u)
 
-advanced by explicit Euler (the scheme of every seed) or classic RK4. Noise is added after the
-deterministic update, Euler-Maruyama style:
+advanced by explicit Euler (the scheme of every seed), classic RK4, or an implicit-explicit
+scheme (``imex1``, ``imex``: diffusion solved exactly in Fourier space, :mod:`morphogen.imex`).
+Noise is added after the deterministic update, Euler-Maruyama style, whatever the scheme:
 
 - additive: ``u += sigma * sqrt(dt) * xi``
 - multiplicative (Langevin): ``u += sigma * u * sqrt(dt) * xi``
@@ -25,10 +26,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError, UnstableTimeStepError
+from morphogen.imex import IMEX_SCHEMES, make_imex_advance
 from morphogen.models.model import Array, Model, Params
 from morphogen.stability import linear_limit
 
-SCHEMES = ("euler", "rk4")
+EXPLICIT_SCHEMES = ("euler", "rk4")
+SCHEMES = EXPLICIT_SCHEMES + IMEX_SCHEMES
 
 
 @dataclass(frozen=True)
@@ -78,7 +81,8 @@ def make_step(
     """
     if scheme not in SCHEMES:
         raise MorphogenError(f"unknown scheme {scheme!r}; use one of {', '.join(SCHEMES)}")
-    rhs = make_rhs(model, domain)
+    advance = (make_imex_advance(model, domain, scheme) if scheme in IMEX_SCHEMES
+               else _explicit_advance(make_rhs(model, domain), scheme))
     bcs = domain.boundaries(model.species)
     noise_mask = _noise_mask(model, noise)
     flux_noise = domain.diffusion_noise if getattr(domain, "stochastic", False) else None
@@ -88,14 +92,7 @@ def make_step(
         if flux_noise is not None:
             key, sub = jax.random.split(key)
             du = flux_noise(u, model.diffusion(p, {**coords, "t": t}), bcs, dt, sub)
-        if scheme == "euler":
-            u = u + dt * rhs(u, p, t)
-        else:
-            k1 = rhs(u, p, t)
-            k2 = rhs(u + 0.5 * dt * k1, p, t + 0.5 * dt)
-            k3 = rhs(u + 0.5 * dt * k2, p, t + 0.5 * dt)
-            k4 = rhs(u + dt * k3, p, t + dt)
-            u = u + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        u = advance(u, p, t, dt)
         if noise is not None and noise.amplitude > 0:
             mask = noise_mask.reshape((-1,) + (1,) * (u.ndim - 1))
             xi = jax.random.normal(key, u.shape, u.dtype) * mask
@@ -108,6 +105,21 @@ def make_step(
         return domain.hold(u, bcs)
 
     return step
+
+
+def _explicit_advance(rhs: Callable, scheme: str) -> Callable:
+    """Explicit Euler or classic RK4 on ``rhs``."""
+
+    def advance(u: Array, p: Params, t: Array, dt: Array) -> Array:
+        if scheme == "euler":
+            return u + dt * rhs(u, p, t)
+        k1 = rhs(u, p, t)
+        k2 = rhs(u + 0.5 * dt * k1, p, t + 0.5 * dt)
+        k3 = rhs(u + 0.5 * dt * k2, p, t + 0.5 * dt)
+        k4 = rhs(u + dt * k3, p, t + dt)
+        return u + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+    return advance
 
 
 def _noise_mask(model: Model, noise: Noise | None) -> np.ndarray:

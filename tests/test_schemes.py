@@ -1,0 +1,129 @@
+"""Implicit-explicit schemes: exact Fourier decay with the stencil symbol, order, gradients."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from core_models import pure_diffusion
+
+from morphogen.domains.grid import Grid
+from morphogen.errors import MorphogenError
+from morphogen.imex import amplification
+from morphogen.models.equations import load_model
+from morphogen.models.model import Model
+from morphogen.simulate import integrate, simulate
+from morphogen.stability import SAFETY_IMPLICIT
+from morphogen.steppers import make_step, max_stable_dt
+
+
+def _mode(shape, m, mirror):
+    """A single Fourier (periodic) or cosine (no-flux) mode and its 5/7-point symbol."""
+    grids = np.meshgrid(*[np.arange(n) for n in shape], indexing="ij")
+    if mirror:
+        ks = [np.pi * mi / n for mi, n in zip(m, shape, strict=True)]
+        f = np.prod([np.cos(k * (g + 0.5)) for k, g in zip(ks, grids, strict=True)], axis=0)
+    else:
+        ks = [2 * np.pi * mi / n for mi, n in zip(m, shape, strict=True)]
+        f = np.prod([np.cos(k * g) for k, g in zip(ks, grids, strict=True)], axis=0)
+    return f, ks
+
+
+@pytest.mark.parametrize("scheme", ["imex1", "imex"])
+@pytest.mark.parametrize(("shape", "boundary", "stencil"), [
+    ((24, 32), "periodic", 5), ((24, 32), "neumann", 5), ((24, 32), "periodic", 9),
+    ((8, 12, 10), "neumann", 7),
+])
+def test_pure_diffusion_mode_decays_by_the_scheme_factor(scheme, shape, boundary, stencil):
+    grid = Grid(shape, dx=0.5, boundary=boundary, stencil=stencil)
+    mirror = boundary == "neumann"
+    f, ks = _mode(shape, (3, 5, 2)[: len(shape)], mirror)
+    if stencil == 9:
+        ky, kx = ks
+        lam = (2 / 3 * (2 * np.cos(kx) + 2 * np.cos(ky)) + 4 / 6 * np.cos(kx) * np.cos(ky)
+               - 10 / 3) / 0.25
+    else:
+        lam = sum(2 * np.cos(k) - 2 for k in ks) / 0.25
+    d, dt, steps = 0.7, 2.0, 5  # dt D rho(L) = 45: far beyond any explicit limit
+    sol = simulate(pure_diffusion(d=d), grid, f[None], {"D": d}, steps=steps, dt=dt,
+                   scheme=scheme)
+    expected = amplification(scheme, dt * d * lam) ** steps * f
+    np.testing.assert_allclose(sol.state[0], expected, atol=2e-6)
+
+
+@pytest.mark.parametrize("boundary", ["periodic", "neumann"])
+def test_mass_is_conserved(boundary):
+    grid = Grid((20, 16), boundary=boundary)
+    u0 = np.random.default_rng(0).random((1, 20, 16)).astype(np.float32)
+    sol = simulate(pure_diffusion(d=3.0), grid, u0, {"D": 3.0}, steps=10, dt=1.0, scheme="imex")
+    assert sol.state.sum() == pytest.approx(u0.sum(), rel=1e-5)
+
+
+def _linear() -> Model:
+    """``du/dt = -k u + D lap(u)``: a mode decays exactly at ``exp(t (-k + D lambda))``."""
+    return Model(
+        name="linear", species=("u",), params={"k": 1.5, "D": 0.8},
+        reaction=lambda u, p, c: -p["k"] * u, diffusion=lambda p, c: (p["D"],),
+        ground=lambda p: (0.0,),
+    )
+
+
+@pytest.mark.parametrize(("scheme", "order"), [("imex1", 1), ("imex", 2)])
+def test_convergence_order(scheme, order):
+    grid = Grid((16, 16))
+    f, ks = _mode((16, 16), (2, 1), False)
+    lam = sum(2 * np.cos(k) - 2 for k in ks)
+    t_end = 1.0
+    exact = np.exp(t_end * (-1.5 + 0.8 * lam)) * f
+    errors = []
+    dts = [0.1, 0.05, 0.025]
+    for dt in dts:
+        sol = simulate(_linear(), grid, f[None], dict(_linear().params),
+                       steps=round(t_end / dt), dt=dt, scheme=scheme)
+        errors.append(np.abs(sol.state[0] - exact).max())
+    slope = np.polyfit(np.log(dts), np.log(errors), 1)[0]
+    assert slope == pytest.approx(order, abs=0.15)
+
+
+def test_gradient_matches_finite_differences():
+    grid = Grid((12, 12), boundary="neumann")
+    model = load_model("schnakenberg")
+    step = make_step(model, grid, scheme="imex")
+    u0 = jnp.asarray(np.array([1.0, 0.9])[:, None, None]
+                     + 0.05 * np.random.default_rng(2).standard_normal((2, 12, 12)), jnp.float32)
+
+    def loss(a):
+        p = {**{k: jnp.float32(v) for k, v in model.params.items()}, "a": a}
+        u, _, _ = integrate(step, u0, p, steps=20, dt=0.05, key=jax.random.PRNGKey(0))
+        return jnp.mean(u[0] ** 2)
+
+    g = jax.grad(loss)(jnp.float32(0.1))
+    h = 1e-2
+    fd = (loss(jnp.float32(0.1 + h)) - loss(jnp.float32(0.1 - h))) / (2 * h)
+    assert float(g) == pytest.approx(float(fd), rel=0.02)
+
+
+def test_imex_limit_is_set_by_the_reaction():
+    model, grid = load_model("examples/schnakenberg.toml"), Grid((128, 128))
+    p = dict(model.params)
+    # J at u* has eigenvalues -0.1 +- 0.995i: the Euler disc needs dt <= -2 Re / |lambda|^2
+    lam = np.linalg.eigvals(np.array([[0.8, 1.0], [-1.8, -1.0]]))
+    marginal = float(np.min(-2 * lam.real / np.abs(lam) ** 2))
+    assert max_stable_dt(model, grid, p, "imex") == pytest.approx(
+        SAFETY_IMPLICIT * marginal, rel=1e-4)
+    assert max_stable_dt(model, grid, p, "imex") > 10 * max_stable_dt(model, grid, p)
+
+
+def test_schemes_that_cannot_carry_a_term_say_so():
+    model = pure_diffusion()
+    with pytest.raises(MorphogenError, match="periodic and neumann"):
+        make_step(model, Grid((8, 8), boundary="dirichlet"), scheme="imex")
+    field = Model(
+        name="field", species=("u",), params={},
+        reaction=lambda u, p, c: jnp.zeros_like(u),
+        diffusion=lambda p, c: (0.5 + c["x"],), ground=lambda p: (0.0,),
+    )
+    with pytest.raises(MorphogenError, match="constant isotropic diffusion"):
+        simulate(field, Grid((8, 8)), np.zeros((1, 8, 8)), {}, steps=1, dt=0.1,
+                 scheme="imex1", unsafe=True)
