@@ -103,12 +103,15 @@ def test_human_selection_drives_the_ga(tmp_path):
 
     def choose(sheet, n):
         sheets.append(sheet)
+        time.sleep(1.5)  # a person looking at the sheet
         return [1, 3]
 
     evolve(run_id, archive, LocalExecutor(problem), select=choose, log=lambda s: None)
     assert sheets == [str(out / "generations" / f"gen_{g:03d}.png") for g in (1, 2)]
     fitness = [r["fitness"] for r in archive.individuals(run_id, 1)]
     np.testing.assert_allclose(fitness, human_fitness([1, 3], 5), rtol=1e-6)
+    # a generation's time is the computer's: the 1.5 s of choosing is not in it
+    assert archive.generations(run_id)[1]["seconds"] < 1.0
 
 
 def test_target_fitness_and_cmaes(tmp_path, capsys):

@@ -151,9 +151,10 @@ def evolve(
         state = state_from_arrays(state, last[1])
     ask_key, eval_key = jax.random.fold_in(master, 1), jax.random.fold_in(master, 2)
     label = f"{problem.model} {config['strategy']['name']} {problem.fitness}"
-    started = time.perf_counter()
+    computing = 0.0  # seconds spent evaluating and breeding, not waiting for a person's choice
     for gen in range(first, total + 1):
         t0 = time.perf_counter()
+        waited = 0.0
         genomes, state = strategy.ask(jax.random.fold_in(ask_key, gen), state)
         genomes = np.asarray(genomes)
         bar = ProgressBar(executor.total(len(genomes)), enabled=progress, unit=executor.unit,
@@ -168,14 +169,17 @@ def evolve(
         title = f"{label} - generation {gen}"
         if problem.fitness == "user":
             sheet = report.write_sheet(directory, gen, rgb, None, title)
+            asked = time.perf_counter()
             chosen = select(str(directory / sheet), len(genomes))
+            waited = time.perf_counter() - asked
             fitness = human_fitness(chosen, len(genomes)).astype(np.float32)
         sheet = report.write_sheet(directory, gen, rgb, fitness, title)
         told = {"gradient": metrics.get("gradient")} if strategy.needs_gradient else {}
         if getattr(strategy, "needs_fields", False):
             told["fields"] = metrics["fields"]
         state, m = strategy.tell(genomes, fitness, state, **told)
-        seconds = time.perf_counter() - t0
+        seconds = time.perf_counter() - t0 - waited
+        computing += seconds
         archive.record_generation(run_id, Generation(
             gen=gen, genomes=genomes, fitness=fitness, valid=metrics["valid"], images=images,
             sheet=sheet, seconds=seconds, best_so_far=float(m["best_fitness"]),
@@ -183,7 +187,7 @@ def evolve(
         ))
         report.write_fitness_plot(directory, archive.generations(run_id), label)
         report.write_best(directory, problem, archive.best(run_id, BEST_KEPT), run_id)
-        remaining = (time.perf_counter() - started) / (gen - first + 1) * (total - gen)
+        remaining = computing / (gen - first + 1) * (total - gen)
         log(_summary(gen, total, fitness, metrics["valid"], float(m["best_fitness"]), seconds,
                      remaining))
     archive.set_status(run_id, "done")
