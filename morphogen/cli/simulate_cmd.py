@@ -31,13 +31,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--boundary", action="append", metavar="SPEC",
                    help="periodic | neumann | dirichlet=VALUE, or SPECIES=SPEC (repeatable)")
     p.add_argument("--stencil", type=int, choices=(5, 7, 9), help="Laplacian stencil points")
-    p.add_argument("--scheme", choices=("euler", "rk4"), default=None, help="time stepper")
+    p.add_argument("--scheme", choices=("euler", "rk4", "imex1", "imex"), default=None,
+                   help="time stepper (imex, imex1: implicit diffusion on grids, see "
+                   "docs/schemes.md)")
     p.add_argument("--init", metavar="KIND|FILE",
                    help="uniform, noise, square, blobs, skaggs, seeds, random "
                    "(U[low, high], --init-opt high=2), or a .npz/image file")
     p.add_argument("--init-opt", action="append", metavar="NAME=VALUE",
                    help="option of the initial condition, e.g. count=20 (repeatable)")
-    p.add_argument("--seed", type=int, default=None, help="random seed")
+    p.add_argument("--seed", type=options.seed, default=None, help="random seed")
     p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE",
                    help="parameter: a number, an expression of x, y, z, or a .npy field "
                    "(repeatable)")
