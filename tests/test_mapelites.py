@@ -116,3 +116,50 @@ def test_evolve_map_elites_end_to_end(tmp_path):
     assert 1 <= filled.sum() <= 18
     # the best elite is the best individual the run ever evaluated
     assert elites[filled].max() == pytest.approx(archive.best(run_id, 1)[0]["fitness"])
+
+
+class _CrashAt:
+    """A local executor that fails on the given generation, as a killed run would."""
+
+    def __init__(self, problem, crash_at):
+        from morphogen.search.executors import LocalExecutor
+
+        self.inner, self.crash_at, self.calls = LocalExecutor(problem), crash_at, 0
+        self.name, self.unit = "local", "step"
+
+    def total(self, population):
+        return self.inner.total(population)
+
+    def evaluate(self, genomes, key, update=None):
+        self.calls += 1
+        if self.calls == self.crash_at:
+            raise RuntimeError("killed")
+        return self.inner.evaluate(genomes, key, update)
+
+
+def test_map_elites_resume_is_bit_identical(tmp_path):
+    from morphogen.search.archive import Archive
+    from morphogen.search.evaluate import Problem
+    from morphogen.search.genes import preset_genes
+    from morphogen.search.run import evolve, start
+
+    problem = Problem(model="gray-scott", genes=tuple(preset_genes("gray-scott")), size=(24, 24),
+                      dt=0.5, steps=120, init="skaggs", preset="skaggs-table-3.1")
+    strategy = {"name": "map-elites", "population": 6}
+    runs = []
+    for name, crash in (("whole", 0), ("broken", 3)):
+        archive = Archive(tmp_path / f"{name}.sqlite")
+        run_id, _ = start(problem, strategy, generations=4, seed=5, archive=archive,
+                          out=tmp_path / name)
+        if crash:
+            with pytest.raises(RuntimeError, match="killed"):
+                evolve(run_id, archive, _CrashAt(problem, crash), log=lambda s: None)
+            assert archive.last_state(run_id)[0] == 2
+        evolve(run_id, archive, _CrashAt(problem, 0), log=lambda s: None)
+        runs.append([(r["gen"], r["idx"], r["genome"], r["fitness"])
+                     for r in archive.individuals(run_id)])
+        runs[-1].append(archive.last_state(run_id)[1])
+    whole, broken = runs
+    assert whole[:-1] == broken[:-1] and len(whole) == 25
+    for k, v in whole[-1].items():
+        np.testing.assert_array_equal(v, broken[-1][k])
