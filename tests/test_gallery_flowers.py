@@ -38,6 +38,7 @@ def test_the_repository_flowers_are_found_with_their_sections() -> None:
     # model files (no [mesh] table) are not flowers; the two older mesh pipelines are
     assert "dianthus-diffusion" not in flowers
     assert flowers["platycodon"] == "4.1"
+    assert flowers["primula"] == "4.3"
     assert flowers["dianthus"] == "4.4"
     assert flowers["mimulus"] == "4.5"
     assert flowers["kohleria"] == "4.7"
