@@ -58,6 +58,7 @@ def test_gallery_runs_each_flower_and_writes_the_index(tmp_path: Path, capsys) -
     page = (out / "index.html").read_text()
     assert re.findall(r'<img src="([^"]+)"', page) == ["tiny/01-colour/out.png"]
     assert "tiny (Ringham §4.2)" in page
+    assert '<main class="grid smooth">' in page  # mesh renders are shrunk smoothly
     assert (out / "tiny" / "final.ply").is_file()
 
 

@@ -133,7 +133,8 @@ def run_gallery(out: str | Path, *, only: list[str] | None = None, examples: Pat
               flush=True)
     page = write_gallery(out_dir, "Flowers: Ringham et al. (2021) case studies", items,
                          intro=f"{len(items)} of {len(flowers)} flower pipelines from "
-                         f"{Path(examples)}; each picture is its pipeline's last stage.")
+                         f"{Path(examples)}; each picture is its pipeline's last stage.",
+                         smooth=True)
     return page, errors
 
 

@@ -2,7 +2,8 @@
 
 The page has inline CSS only — no scripts, CDNs or web fonts — so it opens offline from the
 file system. Images are drawn with ``image-rendering: pixelated`` so small simulation grids
-stay sharp when the browser enlarges them; ``.mp4`` items become looping videos.
+stay sharp when the browser enlarges them (``smooth=True`` turns that off for rendered scenes,
+such as meshes, that the browser shrinks); ``.mp4`` items become looping videos.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ figure.wide { grid-column: 1 / -1; }
 figure img, figure video { width: 100%; height: auto; display: block;
                            image-rendering: pixelated; }
 figure.wide img { width: auto; max-width: 100%; margin: 0 auto; }
+main.smooth figure img { image-rendering: auto; }
 figcaption { font-size: 0.85rem; margin-top: 0.4rem; overflow-wrap: anywhere; }
 """
 
@@ -61,6 +63,7 @@ def write_gallery(
     intro: str | None = None,
     wide: Sequence[str] = (),
     filename: str = "index.html",
+    smooth: bool = False,
 ) -> Path:
     """Write ``directory/index.html`` (atomically) showing ``items`` in a responsive grid.
 
@@ -72,6 +75,8 @@ def write_gallery(
         intro: optional paragraph under the heading.
         wide: relative paths to show across the full width (e.g. an atlas or contact sheet).
         filename: name of the page.
+        smooth: draw images with the browser's smooth scaling instead of pixelated (for
+            rendered scenes larger than their figure, rather than small grids).
 
     Returns:
         The path of the page.
@@ -84,11 +89,12 @@ def write_gallery(
     ]
     head = html.escape(title)
     intro_html = f'<p class="intro">{html.escape(intro)}</p>\n' if intro else ""
+    grid = "grid smooth" if smooth else "grid"
     page = (
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
         '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
         f"<title>{head}</title>\n<style>{_STYLE}</style>\n</head>\n<body>\n"
-        f"<h1>{head}</h1>\n{intro_html}<main class=\"grid\">\n"
+        f"<h1>{head}</h1>\n{intro_html}<main class=\"{grid}\">\n"
         + "\n".join(figures)
         + "\n</main>\n</body>\n</html>\n"
     )
