@@ -245,3 +245,18 @@ def test_ply_header_check_passes_an_exact_file(tmp_path):
     path.write_bytes(header + bytes(36))
     with pytest.raises(MorphogenError, match="need at least 37 bytes.*only 36 bytes"):
         check_declared_sizes(path)
+
+
+@pytest.mark.parametrize("argv", [
+    ["evolve", "gray-scott", "--size", "100000x100000", "--generations", "1"],
+    ["evolve", "gray-scott", "--seed", "-1", "--generations", "1"],
+    ["atlas", "gray-scott", "--x", "F=0.01:0.05:2", "--y", "k=0.05:0.07:2", "--seed",
+     str(2**64)],
+    ["simulate", "gray-scott", "--size", "8x8x8x8"],
+])
+def test_other_commands_share_the_size_and_seed_checks(argv, tmp_path, capsys):
+    out = tmp_path / "o"
+    assert _main([*argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert not out.exists()

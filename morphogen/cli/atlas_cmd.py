@@ -39,7 +39,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--boundary", action="append", metavar="SPEC")
     p.add_argument("--stencil", type=int, choices=(5, 7, 9))
     p.add_argument("--init", help="initial condition kind (default: the model's)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=options.seed, default=0)
     p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE")
     p.add_argument("--species", help="species to draw")
     p.add_argument("--cmap", default="viridis")

@@ -59,7 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="fixed parameter value (repeatable)")
     p.add_argument("--preset", help="named parameter preset of the model")
     p.add_argument("--clamp", metavar="LO:HI|none", help="bound values after each step")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=options.seed, default=0)
     p.add_argument("--cmap", default="viridis", help="colour map of the pictures")
     p.add_argument("--out", help="run directory (default: next to the archive, named by id)")
     p.add_argument("--resume", metavar="RUN", help="continue a run: its directory or id")

@@ -60,7 +60,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--features", choices=EXTRACTORS, default="random", help="texture descriptors")
     p.add_argument("--n-rot", type=options.positive_int, default=8,
                    help="target orientations of the rotation-invariant loss")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=options.seed, default=0)
     p.add_argument("--out", help="output directory (default out/fit/MODEL)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from morphogen.cli import options
 from morphogen.errors import MorphogenError
 
 
@@ -57,7 +58,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     veins.add_argument("--iterations", type=int, default=400, help="most growth steps (400)")
     veins.add_argument("--density", metavar="EXPR",
                        help="acceptance probability of attraction points, from fields")
-    veins.add_argument("--seed", type=int, default=0, help="random seed (0)")
+    veins.add_argument("--seed", type=options.seed, default=0, help="random seed (0)")
     veins.add_argument("--cmap", default="#f4f1fb,#7b68c8",
                        help="colour map of vein_distance under the veins")
     veins.add_argument("--view", default="oblique", help="view of the --png picture")

@@ -6,6 +6,7 @@ Each raises :class:`MorphogenError` with a one-line message on bad input.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 from typing import Any
 
@@ -14,14 +15,20 @@ from morphogen.fields import parse_value
 
 
 def size(text: str) -> list[int]:
-    """``256x256`` or ``64x64x64`` -> ``[256, 256]``; every axis a positive integer."""
+    """``256x256`` or ``64x64x64`` -> ``[256, 256]``; every axis a whole number >= 3, and the
+    grid within :mod:`morphogen.guard`'s memory limit for one species."""
+    from morphogen import guard
+
     parts = text.lower().split("x")
+    if len(parts) not in (2, 3) or any(len(p.strip()) > 12 for p in parts):
+        raise MorphogenError(f"--size {text!r}: give 2 or 3 axes, e.g. 256x256 or 64x64x64")
     try:
         values = [int(p) for p in parts]
     except ValueError:
         raise MorphogenError(f"--size {text!r}: use NxM or NxMxK with whole numbers") from None
-    if len(values) not in (2, 3) or any(v < 3 for v in values):
+    if any(v < 3 for v in values):
         raise MorphogenError(f"--size {text!r}: give 2 or 3 axes, each at least 3 cells")
+    guard.check_memory(math.prod(values), 1)
     return values
 
 
@@ -84,6 +91,19 @@ def noise(text: str | None) -> dict[str, Any] | None:
     if len(parts) > 2 and parts[2]:
         out["species"] = tuple(s.strip() for s in parts[2].split(","))
     return out
+
+
+def seed(text: str) -> int:
+    """argparse type: a seed, a whole number from 0 to 2**32 - 1 (JAX keys keep 32 bits)."""
+    from morphogen.runschema import SEED_MAX
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if not 0 <= value <= SEED_MAX:
+        raise argparse.ArgumentTypeError(f"{text!r} must be between 0 and {SEED_MAX}")
+    return value
 
 
 def positive_int(text: str) -> int:

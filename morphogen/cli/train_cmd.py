@@ -40,7 +40,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--hidden", type=options.positive_int, help="hidden units h")
     p.add_argument("--learn-diffusion", action="store_true",
                    help="learn the diffusion coefficients (default: fixed groups)")
-    p.add_argument("--seed", type=int, help="random seed of the run")
+    p.add_argument("--seed", type=options.seed, help="random seed of the run")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
