@@ -48,3 +48,22 @@ def test_rates_run_resumes_bit_identically(tmp_path):
     np.testing.assert_array_equal(full, resumed)
     assert full.shape == (3, 6)
     assert (np.asarray(pop.educts) == np.asarray(table2_genome(spec).educts)).all()
+
+
+def test_cli_network_mode_runs_and_resumes(tmp_path, capsys):
+    import json
+
+    from morphogen.cli.main import main
+
+    args = ["networks", "--mode", "network", "--out", str(tmp_path / "n"), "--population", "4",
+            "--size", "8", "--dt", "0.5", "--t-start", "5", "--interval", "5", "--rounds", "2",
+            "--quiet"]
+    assert main(args + ["--generations", "1"]) == 0
+    assert main(args + ["--generations", "2"]) == 2  # the folder already holds a run
+    assert "--resume" in capsys.readouterr().err
+    assert main(args + ["--generations", "2", "--resume"]) == 0
+    history = np.loadtxt(tmp_path / "n" / "history.csv", delimiter=",")
+    assert history.shape == (2, 4)
+    best = json.loads((tmp_path / "n" / "best.json").read_text())
+    assert abs(best["fitness"] - history[-1].max()) < 1e-3
+    assert sum(not r["static"] for r in best["reactions"]) >= 1

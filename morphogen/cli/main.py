@@ -26,6 +26,7 @@ COMMANDS = (
     "morphogen.cli.gallery_cmd",
     "morphogen.cli.train_cmd",
     "morphogen.cli.fit_cmd",
+    "morphogen.cli.networks_cmd",
 )
 """Modules that provide sub-commands, in the order ``--help`` lists them."""
 

@@ -145,6 +145,7 @@ def run(
     seed: int = 0,
     resume: bool = False,
     log: Callable[[str], Any] = print,
+    progress: Callable[[int], None] | None = None,
 ) -> tuple[Genome, np.ndarray, np.ndarray]:
     """Evolve; returns the final population, its fitness ``(P,)`` and the fitness history
     ``(generations, P)``. Saves ``state.npz`` every generation and resumes from it."""
@@ -173,7 +174,7 @@ def run(
         if gen > 0:
             pop = breed(jax.random.fold_in(root, 2 * gen + 1), pop, jnp.asarray(fitness))
         u0 = initial_state(jax.random.fold_in(root, 2 * gen + 2), spec, ev)
-        fitness, _ = evaluate(pop, u0, spec, ev)
+        fitness, _ = evaluate(pop, u0, spec, ev, progress)
         history = np.concatenate([history, fitness[None]])
         _save(path, pop, history, gen + 1, meta)
         valid = fitness > INVALID
@@ -189,3 +190,12 @@ def _jsonable(x: Any) -> Any:
     if isinstance(x, list | tuple):
         return [_jsonable(v) for v in x]
     return x
+
+
+def completed(out: str | Path) -> int:
+    """Generations already saved in the run folder ``out`` (0 if none)."""
+    path = Path(out) / "state.npz"
+    if not path.exists():
+        return 0
+    with np.load(path) as data:
+        return int(data["generation"])

@@ -255,3 +255,25 @@ def table2_genome(spec: NetworkSpec | None = None) -> Genome:
                    [1, 0, 0]])
     k = [0.0, 0.0, 0.1, 0.01, 0.02, 0.0, 0.01, 0.1, 0.02]
     return make_genome(spec, k, me, mp)
+
+
+def reaction_text(educts: Sequence[int], products: Sequence[int], species: Sequence[str]) -> str:
+    """``"2A + C -> 3A + C"``; an empty side is ``∅``."""
+
+    def side(col):
+        terms = [f"{c if c > 1 else ''}{s}" for c, s in zip(col, species, strict=True) if c]
+        return " + ".join(terms) or "∅"
+
+    return f"{side(educts)} -> {side(products)}"
+
+
+def describe(genome: Genome, spec: NetworkSpec) -> list[dict[str, Any]]:
+    """The active reactions of one genome: ``{"reaction", "k", "static", "fixed"}`` each."""
+    k = np.asarray(rates(genome))
+    me, mp = np.asarray(genome.educts), np.asarray(genome.products)
+    out = []
+    for j in np.flatnonzero(np.asarray(genome.active)):
+        out.append({"reaction": reaction_text(me[:, j], mp[:, j], spec.species),
+                    "k": float(f"{k[j]:.2g}"), "static": bool(spec.static[j]),
+                    "fixed": bool(spec.fixed_mask[j])})
+    return out
