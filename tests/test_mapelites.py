@@ -163,3 +163,32 @@ def test_map_elites_resume_is_bit_identical(tmp_path):
     assert whole[:-1] == broken[:-1] and len(whole) == 25
     for k, v in whole[-1].items():
         np.testing.assert_array_equal(v, broken[-1][k])
+
+
+def test_elite_map_draws_each_filled_cell_with_its_family():
+    from morphogen.search.elitemap import elite_map
+
+    me = MapElites(population_size=4, bins=3)
+    state = me.init(jax.random.PRNGKey(0), GENES)
+    genomes = np.array([[0.1, 0.0], [0.4, 0.0], [0.6, 0.0], [0.9, 0.0]], np.float32)
+
+    def evaluate(g, key):  # genome a picks the field: spots, holes, vertical, horizontal stripes
+        fields = FIELDS[np.minimum((np.asarray(g)[:, 0] * 4).astype(int), 3)]
+        return np.asarray(g)[:, 0], {"fields": fields, "valid": np.ones(len(g), bool)}
+
+    fitness, metrics = evaluate(genomes, None)
+    state, _ = me.tell(genomes, fitness, state, fields=metrics["fields"])
+    image, families = elite_map(me, state, evaluate, jax.random.PRNGKey(1))
+    # spot_index bins over [-1.5, 1.5]: spots 2, holes 0, stripes 1; coherence: low 0, high 2
+    assert families == {2: "spots", 0: "holes", 1 + 3 * 2: "stripes"}
+    assert image.ndim == 3 and image.shape[2] == 3
+    found = {tuple(p) for p in image.reshape(-1, 3)}
+    assert {_rgb("spots"), _rgb("holes"), _rgb("stripes")} <= found
+    assert _rgb("mixed") not in found
+
+
+def _rgb(family):
+    from morphogen.patterns.classify import COLOURS
+
+    c = COLOURS[family]
+    return tuple(int(c[i:i + 2], 16) for i in (1, 3, 5))
