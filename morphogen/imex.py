@@ -62,26 +62,36 @@ class SpectralDiffusion:
 
     def solve(self, u: Array, coeffs: tuple[Any, ...], c: Array) -> Array:
         """Solve ``(I - c D_i L) v_i = u_i`` for every species ``i``; ``u`` is ``(S, *shape)``."""
-        out = []
-        for i, d in enumerate(coeffs):
-            if isinstance(d, Tensor) or jnp.ndim(d) > 0:
-                raise MorphogenError(
-                    "the imex schemes need constant isotropic diffusion; use euler or rk4 for "
-                    "spatially varying or anisotropic coefficients")
-            out.append(self._solve_one(u[i], d, c, self.mirror[i]))
-        return jnp.stack(out)
+        self.check(coeffs, "imex")
+        return jnp.stack([self._solve_one(u[i], d, c, self.mirror[i])
+                          for i, d in enumerate(coeffs)])
 
-    def _solve_one(self, f: Array, d: Array, c: Array, mirror: bool) -> Array:
-        axes = tuple(range(f.ndim))
+    def forward(self, f: Array, mirror: bool) -> Array:
+        """``rfftn`` of one field, mirrored along every axis first for a no-flux species."""
         if mirror:
-            for ax in axes:
+            for ax in range(f.ndim):
                 f = jnp.concatenate([f, jnp.flip(f, ax)], axis=ax)
-        lam = jnp.asarray(self.symbols[mirror], f.dtype)
-        ext = f.shape
-        v = jnp.fft.irfftn(jnp.fft.rfftn(f) / (1.0 - c * d * lam), s=ext)
+        return jnp.fft.rfftn(f)
+
+    def inverse(self, g: Array, mirror: bool, dtype: Any) -> Array:
+        """Inverse of :meth:`forward`, back on the grid."""
+        ext = tuple(2 * n if mirror else n for n in self.shape)
+        v = jnp.fft.irfftn(g, s=ext)
         if mirror:
             v = v[tuple(slice(0, n) for n in self.shape)]
-        return v.astype(f.dtype)
+        return v.astype(dtype)
+
+    def _solve_one(self, f: Array, d: Array, c: Array, mirror: bool) -> Array:
+        lam = jnp.asarray(self.symbols[mirror], f.dtype)
+        return self.inverse(self.forward(f, mirror) / (1.0 - c * d * lam), mirror, f.dtype)
+
+    def check(self, coeffs: tuple[Any, ...], scheme: str) -> None:
+        """Refuse spatially varying or anisotropic coefficients with a one-line error."""
+        for d in coeffs:
+            if isinstance(d, Tensor) or jnp.ndim(d) > 0:
+                raise MorphogenError(
+                    f"scheme {scheme} needs constant isotropic diffusion; use euler or rk4 for "
+                    "spatially varying or anisotropic coefficients")
 
 
 def _symbol(domain: Any, mirror: bool) -> np.ndarray:

@@ -29,8 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.imex import IMEX_SCHEMES as IMPLICIT_DIFFUSION
-from morphogen.imex import require_spectral_grid
+from morphogen.imex import IMEX_SCHEMES, require_spectral_grid
 from morphogen.models.model import Array, Model, Params, Tensor
 
 SAFETY = 0.9
@@ -51,6 +50,9 @@ GROWTH = 1.5
 """Growth of the grid-scale amplitude between two checks that counts as growing."""
 
 _SIGMAS = 33
+
+IMPLICIT_DIFFUSION = (*IMEX_SCHEMES, "etdrk4")
+"""Schemes that integrate diffusion implicitly or exactly: limited by the reaction alone."""
 
 
 def amplification(scheme: str, z: np.ndarray) -> np.ndarray:
@@ -141,10 +143,10 @@ def linear_limit(
     """Largest stable ``dt`` over ``0 <= sigma <= rho(L)``, with :data:`SAFETY` (explicit) or
     :data:`SAFETY_IMPLICIT`.
 
-    The implicit-explicit schemes treat diffusion implicitly (unconditionally stable), so only
-    the reaction's eigenvalues (``sigma = 0``) limit them, all decaying ones, oscillatory
-    included, against the explicit Euler disc (the explicit part of ARS(2,2,2) has the same real
-    interval, 2); there the step is set by the reaction's time scale.
+    The implicit-explicit and exponential schemes treat diffusion implicitly or exactly
+    (unconditionally stable), so only the reaction's eigenvalues (``sigma = 0``) limit them,
+    all decaying ones, oscillatory included, against the explicit Euler disc (the explicit part
+    of ARS(2,2,2) has the same real interval, 2): the step follows the reaction's time scale.
     """
     coords = {**domain.coords, "t": 0.0}
     p = {k: jnp.asarray(v) for k, v in params.items()}

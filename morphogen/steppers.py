@@ -6,7 +6,8 @@ deterministic right-hand side is
 .. math:: f(u) = R(u, p, x, t) + \\nabla\\cdot(D\\nabla u)
 
 advanced by explicit Euler (the scheme of every seed), classic RK4, or an implicit-explicit
-scheme (``imex1``, ``imex``: diffusion solved exactly in Fourier space, :mod:`morphogen.imex`).
+scheme (``imex1``, ``imex``: diffusion solved exactly in Fourier space, :mod:`morphogen.imex`)
+or the exponential integrator ``etdrk4`` (:mod:`morphogen.etd`).
 Noise is added after the deterministic update, Euler-Maruyama style, whatever the scheme:
 
 - additive: ``u += sigma * sqrt(dt) * xi``
@@ -26,12 +27,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError, UnstableTimeStepError
+from morphogen.etd import make_etd_advance
 from morphogen.imex import IMEX_SCHEMES, make_imex_advance
 from morphogen.models.model import Array, Model, Params
 from morphogen.stability import linear_limit
 
 EXPLICIT_SCHEMES = ("euler", "rk4")
-SCHEMES = EXPLICIT_SCHEMES + IMEX_SCHEMES
+SCHEMES = EXPLICIT_SCHEMES + IMEX_SCHEMES + ("etdrk4",)
 
 
 @dataclass(frozen=True)
@@ -81,8 +83,12 @@ def make_step(
     """
     if scheme not in SCHEMES:
         raise MorphogenError(f"unknown scheme {scheme!r}; use one of {', '.join(SCHEMES)}")
-    advance = (make_imex_advance(model, domain, scheme) if scheme in IMEX_SCHEMES
-               else _explicit_advance(make_rhs(model, domain), scheme))
+    if scheme in IMEX_SCHEMES:
+        advance = make_imex_advance(model, domain, scheme)
+    elif scheme == "etdrk4":
+        advance = make_etd_advance(model, domain)
+    else:
+        advance = _explicit_advance(make_rhs(model, domain), scheme)
     bcs = domain.boundaries(model.species)
     noise_mask = _noise_mask(model, noise)
     flux_noise = domain.diffusion_noise if getattr(domain, "stochastic", False) else None

@@ -31,8 +31,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--boundary", action="append", metavar="SPEC",
                    help="periodic | neumann | dirichlet=VALUE, or SPECIES=SPEC (repeatable)")
     p.add_argument("--stencil", type=int, choices=(5, 7, 9), help="Laplacian stencil points")
-    p.add_argument("--scheme", choices=("euler", "rk4", "imex1", "imex"), default=None,
-                   help="time stepper (imex, imex1: implicit diffusion on grids, see "
+    p.add_argument("--scheme", choices=("euler", "rk4", "imex1", "imex", "etdrk4"), default=None,
+                   help="time stepper (imex, imex1, etdrk4: stiff diffusion on grids, see "
                    "docs/schemes.md)")
     p.add_argument("--init", metavar="KIND|FILE",
                    help="uniform, noise, square, blobs, skaggs, seeds, random "
