@@ -40,7 +40,8 @@ def test_evaluation_matches_fixed_structure_model():
 def test_rates_run_resumes_bit_identically(tmp_path):
     spec = table2_spec()
     ops = Operators(mode="rates")
-    kw = dict(ops=ops, ev=EV, population=6, seed=3, log=lambda s: None)
+    ev = Evaluation(size=8, dt=0.5, t_start=5.0, interval=5.0, rounds=2)
+    kw = dict(ops=ops, ev=ev, population=6, seed=3, log=lambda s: None)
     _, _, full = run(spec, table2_genome(spec), tmp_path / "a", generations=3, **kw)
     run(spec, table2_genome(spec), tmp_path / "b", generations=2, **kw)
     pop, _, resumed = run(spec, table2_genome(spec), tmp_path / "b", generations=3,

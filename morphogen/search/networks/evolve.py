@@ -82,6 +82,11 @@ def _advance(spec: NetworkSpec, size: int, steps: int, dt: float) -> Callable:
 
 
 @lru_cache(maxsize=16)
+def _breeder(spec: NetworkSpec, ops: Operators) -> Callable:
+    return jax.jit(lambda k, p, f: next_generation(k, p, f, spec, ops))
+
+
+@lru_cache(maxsize=16)
 def _score(activator: int) -> Callable:
     return jax.jit(cluster_head_fitness(species=activator))
 
@@ -168,7 +173,7 @@ def run(
         pop = random_population(jax.random.fold_in(root, 0), template, spec, population, ops)
         history = np.zeros((0, population), np.float32)
         done = 0
-    breed = jax.jit(lambda k, p, f: next_generation(k, p, f, spec, ops))
+    breed = _breeder(spec, ops)
     fitness = history[-1] if len(history) else None
     for gen in range(done, generations):
         if gen > 0:
