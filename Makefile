@@ -33,7 +33,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check morphogen tests bench fuzz
 
 test: $(STAMP) lint
-	JAX_PLATFORMS=cpu $(BIN)/python -m pytest
+	JAX_PLATFORMS=cpu $(BIN)/python -m pytest -n 2 --dist loadfile  # two workers, a file each
 
 serve: $(STAMP)
 	$(BIN)/morphogen serve --port $(or $(PORT),8000)

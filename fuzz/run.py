@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import resource
 import subprocess
 import sys
 import tempfile
@@ -57,13 +58,19 @@ class FuzzResult:
 
 
 def fuzz(target: str, seconds: int, artifacts: Path, max_len: int = 4096) -> FuzzResult:
-    """Fuzz ``target`` for ``seconds``; each input may take at most 10 s and 2 GiB."""
+    """Fuzz ``target`` for ``seconds``; each input may take at most 10 s and 2 GiB.
+
+    libFuzzer reads its memory as the process's peak RSS, which a child inherits from the
+    process that started it (a pytest worker may hold gigabytes), so the limit is 2 GiB above
+    this process's own peak.
+    """
     artifacts.mkdir(parents=True, exist_ok=True)
+    rss_limit = 2048 + resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024
     with tempfile.TemporaryDirectory(prefix=f"corpus-{target}-") as tmp:
         corpus = seed_corpus(target, Path(tmp))
         cmd = [sys.executable, "-m", "fuzz.targets", target,
                f"-max_total_time={seconds}", f"-max_len={max_len}", "-timeout=10",
-               "-rss_limit_mb=2048", "-print_final_stats=1",
+               f"-rss_limit_mb={rss_limit}", "-print_final_stats=1",
                f"-artifact_prefix={artifacts}/", str(corpus)]
         proc = subprocess.run(cmd, capture_output=True, text=True,
                               cwd=Path(__file__).resolve().parent.parent,
