@@ -79,14 +79,20 @@ class Engine:
                     u, t, key = integrate(step, u, p, steps=n, dt=dt, t0=t, key=key)
                     f = jnp.take(u, show, axis=0)
                     ok = jnp.all(jnp.isfinite(u) & (jnp.abs(u) < OVERFLOW))
-                    scale = jnp.where(hi > lo, 255.0 / jnp.maximum(hi - lo, 1e-30), 0.0)
-                    img = jnp.clip(jnp.round((f - lo) * scale), 0, 255).astype(jnp.uint8)
+                    img = _pixels(f, lo, hi)
                     return u, t, key, img, jnp.min(f), jnp.max(f), ok
 
                 self.advance[n] = jax.jit(run)
             if self.paint is None:
                 self.paint = jax.jit(_painter(self.grid))
             return self.advance[n]
+
+
+def _pixels(f: Any, lo: Any, hi: Any) -> Any:
+    """Grey levels 0..255 of ``f`` scaled from ``[lo, hi]`` (all 0 when ``hi <= lo``); the one
+    mapping of both the jitted frame and the still picture."""
+    scale = jnp.where(hi > lo, 255.0 / jnp.maximum(hi - lo, 1e-30), 0.0)
+    return jnp.clip(jnp.round((f - lo) * scale), 0, 255).astype(jnp.uint8)
 
 
 def _painter(grid: Grid) -> Callable:
@@ -291,8 +297,7 @@ class LiveSim:
             self._scale()
             self._follow(float(f.min()), float(f.max()))  # a stroke beyond the range shows
             lo, hi = np.float32(self.lo), np.float32(self.hi)
-            scale = np.float32(255.0) / max(hi - lo, np.float32(1e-30)) if hi > lo else 0.0
-            self.pixels = np.clip(np.round((f - lo) * scale), 0, 255).astype(np.uint8)
+            self.pixels = np.asarray(_pixels(f, lo, hi))
             self.frames += 1
             return Frame(self.pixels, self.frames, float(self.t), self.total_steps,
                          float(self.lo), float(self.hi), self.compute_s)
