@@ -309,7 +309,8 @@ def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
         raise MorphogenError("a simulate stage needs model = NAME or a model file")
     ref = str(stage["model"])
     base = Path(spec.get("base", "."))
-    model = load_model(str(base / ref) if ref.endswith(".toml") else ref)
+    files = (".toml", ".ant", ".antimony", ".xml", ".sbml")
+    model = load_model(str(base / ref) if ref.lower().endswith(files) else ref)
     domain = mesh.replace(boundary=stage.get("boundary", "neumann"), omega=stage.get("omega"))
     if "directions" in stage:
         domain = domain.replace(directions=domain.face_gradient(evaluate(stage["directions"],

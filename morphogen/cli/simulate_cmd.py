@@ -14,7 +14,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "simulate",
         help="simulate a model on a grid or mesh",
-        description="Simulate a library model or a model file (.toml) and write DIR/state.npz, "
+        description="Simulate a library model, a model file (.toml) or a mass-action network "
+        "(Antimony .ant, SBML .xml; species diffuse with parameters D_<species>, default 0) "
+        "and write DIR/state.npz, "
         "DIR/final.png, DIR/run.json (and DIR/animation.gif with --every).",
     )
     p.add_argument("model", nargs="?", metavar="MODEL_OR_FILE",

@@ -59,7 +59,9 @@ def load_model(name_or_path: str | os.PathLike) -> Model:
     """A library model by name, or a model file.
 
     A path ending in ``.toml`` is parsed, one ending in ``.npz`` is read as a trained neural RD
-    model; otherwise a library name is looked up, and an existing file of that name is parsed.
+    model, one ending in ``.ant``/``.antimony``/``.xml``/``.sbml`` is read as a mass-action
+    network (:mod:`morphogen.models.sbml`); otherwise a library name is looked up, and an
+    existing file of that name is parsed.
     """
     text = os.fspath(name_or_path)
     if text.endswith(".toml"):
@@ -68,6 +70,10 @@ def load_model(name_or_path: str | os.PathLike) -> Model:
         from morphogen.models.neural import load_neural_model
 
         return load_neural_model(text)
+    if text.lower().endswith((".ant", ".antimony", ".xml", ".sbml")):
+        from morphogen.models.sbml import load_network_file
+
+        return load_network_file(text)
     from morphogen.models.library import LIBRARY, get_model
 
     if text not in LIBRARY and os.path.isfile(text):

@@ -8,15 +8,18 @@ matrices ``M_e``, ``M_p`` (shape ``(n, m)``), rate constants ``k`` and diffusion
     \\frac{ds}{dt} = M v,\\qquad M = M_p - M_e,\\qquad
     v_j = k_j \\prod_{l} s_l^{M_e(l, j)}
 
-The matrices are the network's structure (fixed at construction); the rates ``k1..km`` and
-diffusion coefficients ``D_<species>`` are runtime parameters, so a population of rate vectors is
-one batched program.
+The matrices are the network's structure (fixed at construction); the rates (``k1..km`` unless
+named) and diffusion coefficients ``D_<species>`` are runtime parameters, so a population of rate
+vectors is one batched program. :class:`ReactionNetwork` is the same network as plain data (names,
+matrices, values), the common form of imported Antimony/SBML files, evolved genomes and the
+hand-made network, from which models, files and drawings are made.
 """
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import jax.numpy as jnp
 import numpy as np
@@ -38,6 +41,7 @@ def mass_action(
     display: str | None = None,
     ground: tuple[float, ...] | None = None,
     excited: tuple[float, ...] | None = None,
+    rate_names: Sequence[str] | None = None,
 ) -> Model:
     """Build a :class:`Model` from stoichiometric matrices (Yamamoto eqs. 2-3).
 
@@ -47,6 +51,8 @@ def mass_action(
         rates: default rate constants ``k_j``, length ``m`` (parameters ``k1..km``).
         diffusion: default diffusion coefficients, length ``n`` (parameters ``D_<species>``).
         ground, excited: homogeneous state and perturbation values, if known.
+        rate_names: parameter names of the rates (default ``k1..km``); reactions may share a
+            name (and then its value).
     """
     me = np.asarray(educts, dtype=np.int64)
     mp = np.asarray(products, dtype=np.int64)
@@ -62,7 +68,9 @@ def mass_action(
     if len(rates) != m or len(diffusion) != n:
         raise MorphogenError(f"need {m} rate constants and {n} diffusion coefficients")
     net = mp - me
-    rate_names = [f"k{j + 1}" for j in range(m)]
+    rate_names = list(rate_names) if rate_names is not None else [f"k{j + 1}" for j in range(m)]
+    if len(rate_names) != m:
+        raise MorphogenError(f"need {m} rate names, got {len(rate_names)}")
     diff_names = [f"D_{s}" for s in species]
 
     def reaction(u, p, c):
@@ -95,6 +103,140 @@ def mass_action(
     )
 
 
+@dataclass(frozen=True, eq=False)
+class ReactionNetwork:
+    """A mass-action network as data: ``ds/dt = (M_p - M_e) v``, ``v_j = k_j Π_l s_l^{M_e(l,j)}``
+    (Yamamoto eqs. 2-3), with the names a file or a model gives its parts.
+
+    Attributes:
+        name: model name.
+        species: species names, length ``n``.
+        educts, products: ``M_e``, ``M_p``, non-negative integers, shape ``(n, m)``.
+        reaction_ids: reaction names, length ``m``.
+        rate_names: the rate parameter of each reaction (reactions may share one).
+        rates: the rate value of each reaction (equal for a shared name).
+        diffusion: default diffusion coefficients (parameters ``D_<species>``), length ``n``.
+        initial: homogeneous initial state, if known.
+        display: the species shown by default.
+        dt, t_end: suggested time step and simulated time.
+    """
+
+    name: str
+    species: tuple[str, ...]
+    educts: np.ndarray
+    products: np.ndarray
+    reaction_ids: tuple[str, ...]
+    rate_names: tuple[str, ...]
+    rates: tuple[float, ...]
+    diffusion: tuple[float, ...]
+    initial: tuple[float, ...] | None = None
+    display: str | None = None
+    description: str = ""
+    reference: str = "Yamamoto et al. eqs. 2-3"
+    dt: float = 1.0
+    t_end: float = 1000.0
+
+    def __post_init__(self) -> None:
+        from morphogen.models.equations import RESERVED
+
+        n, m = len(self.species), len(self.reaction_ids)
+        me, mp = np.asarray(self.educts), np.asarray(self.products)
+        if me.shape != (n, m) or mp.shape != (n, m):
+            raise MorphogenError(f"network {self.name!r}: stoichiometric matrices must have "
+                                 f"shape ({n}, {m}), got {me.shape} and {mp.shape}")
+        if (me < 0).any() or (mp < 0).any():
+            raise MorphogenError(f"network {self.name!r}: negative stoichiometric entry")
+        if len(self.rate_names) != m or len(self.rates) != m or len(self.diffusion) != n:
+            raise MorphogenError(f"network {self.name!r}: need {m} rates and {n} diffusion "
+                                 "coefficients")
+        if self.initial is not None and len(self.initial) != n:
+            raise MorphogenError(f"network {self.name!r}: need {n} initial values")
+        names = list(self.species) + [f"D_{s}" for s in self.species]
+        if len(set(names)) != len(names) or set(names) & set(self.rate_names):
+            raise MorphogenError(f"network {self.name!r}: a name is used twice among species, "
+                                 "rate parameters and D_<species>")
+        for name in names + list(self.rate_names):
+            if not name.isidentifier() or name.startswith("_") or name in RESERVED:
+                raise MorphogenError(f"network {self.name!r}: name {name!r} is not usable in "
+                                     "morphogen expressions; rename it (letters, digits, _)")
+        shared: dict[str, float] = {}
+        for rid, name, k in zip(self.reaction_ids, self.rate_names, self.rates, strict=True):
+            if shared.setdefault(name, k) != k:
+                raise MorphogenError(f"network {self.name!r}: rate {name!r} of reaction {rid} "
+                                     f"has two values, {shared[name]} and {k}")
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """Rates then ``D_<species>``: the model's default parameters."""
+        out = dict(zip(self.rate_names, map(float, self.rates), strict=True))
+        out.update((f"D_{s}", float(d)) for s, d in zip(self.species, self.diffusion,
+                                                         strict=True))
+        return out
+
+    def model(self) -> Model:
+        """The fixed-structure :func:`mass_action` model of this network."""
+        initial = tuple(map(float, self.initial)) if self.initial is not None else None
+        model = mass_action(self.name, self.species, self.educts, self.products, self.rates,
+                            self.diffusion, rate_names=self.rate_names,
+                            description=self.description, reference=self.reference,
+                            display=self.display, ground=initial)
+        return replace(model, dt=self.dt, t_end=self.t_end)
+
+
+def to_toml(net: ReactionNetwork) -> str:
+    """A morphogen model file (``docs/equations.md``) with the network's equations written out,
+    ``ds_i/dt = Σ_j (M_p - M_e)_ij k_j Π_l s_l^{M_e(l,j)} + D_i ∇² s_i``."""
+    me, mp = np.asarray(net.educts), np.asarray(net.products)
+    flux = []
+    for j, k in enumerate(net.rate_names):
+        powers = [s if me[i, j] == 1 else f"{s}**{me[i, j]}"
+                  for i, s in enumerate(net.species) if me[i, j]]
+        flux.append("*".join([k, *powers]))
+    lines = [f"name = {json.dumps(net.name)}"]
+    if net.description:
+        lines.append(f"description = {json.dumps(net.description)}")
+    lines += [f"reference = {json.dumps(net.reference)}",
+              f"species = [{', '.join(json.dumps(s) for s in net.species)}]"]
+    if net.display:
+        lines.append(f"display = {json.dumps(net.display)}")
+    lines += [f"dt = {net.dt!r}", f"t_end = {net.t_end!r}", 'init = "noise"', "",
+              "[parameters]"]
+    lines += [f"{k} = {v!r}" for k, v in net.parameters.items()]
+    lines += ["", "[equations]"]
+    for i, s in enumerate(net.species):
+        terms = []
+        for j in range(len(net.reaction_ids)):
+            c = int(mp[i, j]) - int(me[i, j])
+            if c:
+                sign = "-" if c < 0 else "+"
+                terms.append(f"{sign} {abs(c)}*{flux[j]}" if abs(c) > 1 else f"{sign} {flux[j]}")
+        terms.append(f"+ D_{s}*lap({s})")
+        lines.append(f"{s} = {json.dumps(' '.join(terms).removeprefix('+ '))}")
+    if net.initial is not None:
+        lines += ["", "[initial]"]
+        lines += [f"{s} = {float(v)!r}" for s, v in zip(net.species, net.initial, strict=True)]
+    return "\n".join(lines) + "\n"
+
+
+def yamamoto_network() -> ReactionNetwork:
+    """The activator-inhibitor-catalyst network of :func:`yamamoto_activator_inhibitor` as data."""
+    #                R1 R2 R3 R4 R5 R6
+    educts = np.array([[2, 2, 0, 1, 0, 0],   # a
+                       [0, 0, 1, 0, 1, 0],   # h
+                       [1, 0, 1, 0, 0, 0]])  # c
+    products = np.array([[3, 2, 0, 0, 0, 0],
+                         [0, 1, 1, 0, 0, 0],
+                         [1, 0, 0, 0, 0, 1]])
+    return ReactionNetwork(
+        "yamamoto-network", ("a", "h", "c"), educts, products,
+        reaction_ids=tuple(f"R{j + 1}" for j in range(6)),
+        rate_names=tuple(f"k{j + 1}" for j in range(6)),
+        rates=(0.01, 0.02, 0.1, 0.01, 0.02, 0.1), diffusion=(0.005, 0.2, 0.0),
+        initial=(1.0, 1.0, 1.0), display="a",
+        description="mass-action activator-inhibitor-catalyst network: spots",
+        reference="Yamamoto et al. §2.1, eqs. 2-5", dt=1.0, t_end=3000.0)
+
+
 def yamamoto_activator_inhibitor() -> Model:
     """The activator-inhibitor-catalyst network of Yamamoto et al. §2.1 (their Fig. 1 spots).
 
@@ -116,23 +258,17 @@ def yamamoto_activator_inhibitor() -> Model:
     from the text ("a catalyst C that is needed in the autocatalysis of A but is consumed by
     H") and reproduces eqs. 4-5 as stated.
     """
-    #                R1 R2 R3 R4 R5 R6
-    educts = np.array([[2, 2, 0, 1, 0, 0],   # a
-                       [0, 0, 1, 0, 1, 0],   # h
-                       [1, 0, 1, 0, 0, 0]])  # c
-    products = np.array([[3, 2, 0, 0, 0, 0],
-                         [0, 1, 1, 0, 0, 0],
-                         [1, 0, 0, 0, 0, 1]])
+    net = yamamoto_network()
     model = mass_action(
-        "yamamoto-network",
-        ("a", "h", "c"),
-        educts,
-        products,
-        rates=(0.01, 0.02, 0.1, 0.01, 0.02, 0.1),
-        diffusion=(0.005, 0.2, 0.0),
-        description="mass-action activator-inhibitor-catalyst network: spots",
-        display="a",
-        ground=(1.0, 1.0, 1.0),
+        net.name,
+        net.species,
+        net.educts,
+        net.products,
+        rates=net.rates,
+        diffusion=net.diffusion,
+        description=net.description,
+        display=net.display,
+        ground=net.initial,
         excited=(2.0, 1.0, 1.0),
     )
-    return replace(model, dt=1.0, t_end=3000.0, init="noise")
+    return replace(model, dt=net.dt, t_end=net.t_end, init="noise")

@@ -1,0 +1,299 @@
+"""Antimony and SBML mass-action networks in and out (Yamamoto et al. eqs. 2-3).
+
+A file from tellurium, COPASI or any SBML tool becomes a :class:`ReactionNetwork` when every
+reaction has a **mass-action** kinetic law
+
+.. math::
+
+    v_j = k_j \\prod_l s_l^{M_e(l, j)}
+
+written as a product of one rate constant ``k_j`` (a global or local parameter with a value, or
+one number, then named ``k_<reaction>``), the reactant species each raised to its integer
+stoichiometry (``A^2`` or ``A*A``), and optionally compartment symbols. Compartments must have
+size 1, so a compartment factor is 1 and concentrations equal amounts. Anything else (another
+species, a sum, a function, a rule or event, a boundary or constant species, non-integer
+stoichiometry) is refused with one line naming the reaction or element. Species get the
+diffusion parameters ``D_<species>``: default 0, or the value of a file parameter of that name.
+
+Antimony text is translated to SBML by libAntimony and then read like SBML; export goes the other
+way (SBML written with libSBML, Antimony produced from it by libAntimony).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from morphogen.errors import MorphogenError
+from morphogen.models.model import Model
+from morphogen.models.network import ReactionNetwork, to_toml
+
+ANTIMONY_SUFFIXES = (".ant", ".antimony")
+SBML_SUFFIXES = (".xml", ".sbml")
+SUFFIXES = ANTIMONY_SUFFIXES + SBML_SUFFIXES
+"""File endings :func:`morphogen.models.equations.load_model` reads as networks."""
+
+
+def load_network_file(path: str | os.PathLike) -> Model:
+    """A model from an Antimony (``.ant``, ``.antimony``) or SBML (``.xml``, ``.sbml``) file.
+
+    The model's ``source`` is its morphogen model file (:func:`to_toml`), so a run records an
+    equivalent TOML text and replays without the original file.
+    """
+    net = read_network_file(path)
+    return replace(net.model(), source=to_toml(net))
+
+
+def read_network_file(path: str | os.PathLike) -> ReactionNetwork:
+    """Read an Antimony or SBML file as a :class:`ReactionNetwork` (by its suffix)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise MorphogenError(f"network file {path} not found") from None
+    except UnicodeDecodeError:
+        raise MorphogenError(f"network file {path} is not UTF-8 text") from None
+    except OSError as exc:
+        raise MorphogenError(f"cannot read network file {path}: {exc.strerror}") from None
+    if path.suffix.lower() in ANTIMONY_SUFFIXES:
+        return read_antimony(text, where=str(path))
+    return read_sbml(text, where=str(path), name=path.stem)
+
+
+def read_antimony(text: str, where: str = "Antimony text") -> ReactionNetwork:
+    """Translate Antimony to SBML with libAntimony, then :func:`read_sbml`."""
+    import antimony
+
+    antimony.clearPreviousLoads()
+    if antimony.loadAntimonyString(text.removeprefix("\ufeff")) < 0:
+        message = " ".join(antimony.getLastError().split()) or "not Antimony"
+        raise MorphogenError(f"{where}: {message}")
+    module = antimony.getMainModuleName()
+    sbml = antimony.getSBMLString(module)
+    antimony.clearPreviousLoads()
+    return read_sbml(sbml, where=where, name=module)
+
+
+def read_sbml(text: str, where: str = "SBML text", name: str = "network") -> ReactionNetwork:
+    """Parse SBML and check every reaction is mass action (see the module docstring).
+
+    Raises:
+        MorphogenError: one line naming the file and the element at fault.
+    """
+    import libsbml
+
+    doc = libsbml.readSBMLFromString(text.removeprefix("\ufeff"))
+    log = doc.getErrorLog()
+    for i in range(log.getNumErrors()):
+        err = log.getError(i)
+        if err.isError() or err.isFatal():
+            message = " ".join(err.getMessage().split())
+            raise MorphogenError(f"{where}: not valid SBML (line {err.getLine()}): {message}")
+    model = doc.getModel()
+    if model is None:
+        raise MorphogenError(f"{where}: the SBML document holds no model")
+    for kind, count in (("rules", model.getNumRules()), ("events", model.getNumEvents()),
+                        ("function definitions", model.getNumFunctionDefinitions()),
+                        ("initial assignments", model.getNumInitialAssignments())):
+        if count:
+            raise MorphogenError(f"{where}: {kind} are not supported; a network file may hold "
+                                 "only species, parameters and mass-action reactions")
+    return _Reader(model, where).network(model.getId() or name)
+
+
+class _Reader:
+    """Turns one libSBML model into a :class:`ReactionNetwork`."""
+
+    def __init__(self, model, where: str):
+        self.model, self.where = model, where
+        self.species = [s.getId() for s in model.getListOfSpecies()]
+        self.compartments = {c.getId() for c in model.getListOfCompartments()}
+        self.params = {p.getId(): p for p in model.getListOfParameters()}
+
+    def fail(self, message: str) -> MorphogenError:
+        return MorphogenError(f"{self.where}: {message}")
+
+    def network(self, name: str) -> ReactionNetwork:
+        species = self.species
+        for c in self.model.getListOfCompartments():
+            if c.isSetSize() and c.getSize() != 1.0:
+                raise self.fail(f"compartment {c.getId()} has size {c.getSize():g}; mass-action "
+                                "networks are read with compartments of size 1")
+        if not species:
+            raise self.fail("the model has no species")
+        for s in self.model.getListOfSpecies():
+            if s.getBoundaryCondition() or s.getConstant():
+                raise self.fail(f"species {s.getId()} is a boundary or constant species; make it "
+                                "a parameter or an ordinary species")
+        n, m = len(species), self.model.getNumReactions()
+        if m == 0:
+            raise self.fail("the model has no reactions")
+        me, mp = np.zeros((n, m), np.int64), np.zeros((n, m), np.int64)
+        ids, rate_names, rates = [], [], []
+        for j, rx in enumerate(self.model.getListOfReactions()):
+            rid = rx.getId()
+            ids.append(rid)
+            for refs, mat in ((rx.getListOfReactants(), me), (rx.getListOfProducts(), mp)):
+                for ref in refs:
+                    if ref.getSpecies() not in species:
+                        raise self.fail(f"reaction {rid}: unknown species {ref.getSpecies()!r}")
+                    mat[species.index(ref.getSpecies()), j] += self._stoichiometry(rid, ref)
+            k_name, k = self._mass_action(rx, me[:, j])
+            rate_names.append(k_name)
+            rates.append(k)
+        diffusion = tuple(self._value(f"D_{s}", 0.0) for s in species)
+        initial = [self._initial(s) for s in self.model.getListOfSpecies()]
+        return ReactionNetwork(
+            name, tuple(species), me, mp, tuple(ids), tuple(rate_names), tuple(rates),
+            diffusion, initial=None if None in initial else tuple(initial), display=species[0],
+            description=f"mass-action network read from {Path(self.where).name}",
+            reference=f"network file {self.where}")
+
+    def _stoichiometry(self, rid: str, ref) -> int:
+        value = ref.getStoichiometry() if ref.isSetStoichiometry() else 1.0
+        if ref.isSetStoichiometryMath():
+            raise self.fail(f"reaction {rid}: stoichiometry given by a formula; use integers")
+        if value != int(value) or value < 0 or value != value:
+            raise self.fail(f"reaction {rid}: stoichiometry {value:g} of {ref.getSpecies()} is "
+                            "not a non-negative integer")
+        return int(value)
+
+    def _value(self, name: str, default: float) -> float:
+        p = self.params.get(name)
+        return float(p.getValue()) if p is not None and p.isSetValue() else default
+
+    def _initial(self, s) -> float | None:
+        if s.isSetInitialConcentration():
+            return float(s.getInitialConcentration())
+        if s.isSetInitialAmount():
+            return float(s.getInitialAmount())
+        return None
+
+    def _mass_action(self, rx, educts: np.ndarray) -> tuple[str, float]:
+        """The rate constant of ``rx`` after checking its law is ``k Π s^e``."""
+        import libsbml
+
+        rid = rx.getId()
+        law = rx.getKineticLaw() if rx.isSetKineticLaw() else None
+        if law is None or law.getMath() is None:
+            raise self.fail(f"reaction {rid} has no rate law")
+        text = libsbml.formulaToL3String(law.getMath())
+        refuse = self.fail(f"reaction {rid}: rate law {text!r} is not mass action (one rate "
+                           "constant times each reactant to the power of its stoichiometry)")
+        local = {p.getId(): p for p in law.getListOfParameters()}
+        powers = np.zeros_like(educts)
+        constants: list[str | float] = []
+        for node, exponent in _factors(law.getMath(), refuse):
+            if node.isNumber():
+                constants.append(float(node.getValue()) ** exponent)
+                continue
+            name = node.getName()
+            if name in self.species and name not in local:
+                powers[self.species.index(name)] += exponent
+            elif name in self.compartments:
+                continue
+            elif exponent == 1 and (name in local or name in self.params):
+                constants.append(name)
+            else:
+                raise self.fail(f"reaction {rid}: rate law uses {name!r}, which is neither a "
+                                "species nor a parameter")
+        if len(constants) != 1 or not np.array_equal(powers, educts):
+            raise refuse
+        k = constants[0]
+        if isinstance(k, float):
+            return f"k_{rid}", k
+        p = local.get(k) or self.params[k]
+        if not p.isSetValue():
+            raise self.fail(f"reaction {rid}: rate constant {k!r} has no value")
+        if k in local and k in self.params:
+            k = f"{rid}_{k}"
+        return k, float(p.getValue())
+
+
+def _factors(node, refuse: MorphogenError) -> list:
+    """``[(leaf, exponent)]`` of a product of names, numbers and integer powers of them."""
+    import libsbml
+
+    kind = node.getType()
+    if kind == libsbml.AST_TIMES:
+        out = []
+        for i in range(node.getNumChildren()):
+            out += _factors(node.getChild(i), refuse)
+        return out
+    if kind in (libsbml.AST_POWER, libsbml.AST_FUNCTION_POWER) and node.getNumChildren() == 2:
+        base, power = node.getChild(0), node.getChild(1)
+        if not power.isNumber() or power.getValue() != int(power.getValue()) \
+                or power.getValue() < 1 or base.getType() == libsbml.AST_TIMES:
+            raise refuse
+        return [(leaf, e * int(power.getValue())) for leaf, e in _factors(base, refuse)]
+    if node.isNumber() or kind == libsbml.AST_NAME:
+        return [(node, 1)]
+    raise refuse
+
+
+def to_sbml(net: ReactionNetwork) -> str:
+    """SBML Level 3 Version 2 of the network: one compartment of size 1, species with initial
+    concentrations, rate parameters, the parameters ``D_<species>`` (read back on import), and
+    each reaction's mass-action law ``k * Π s^e``."""
+    import libsbml
+
+    doc = libsbml.SBMLDocument(3, 2)
+    model = doc.createModel()
+    model.setId(_sbml_id(net.name))
+    comp = model.createCompartment()
+    comp.setId("cell")
+    comp.setSize(1.0)
+    comp.setConstant(True)
+    comp.setSpatialDimensions(3)
+    initial = net.initial or (0.0,) * len(net.species)
+    for s, v in zip(net.species, initial, strict=True):
+        sp = model.createSpecies()
+        sp.setId(s)
+        sp.setCompartment("cell")
+        sp.setInitialConcentration(float(v))
+        sp.setHasOnlySubstanceUnits(False)
+        sp.setBoundaryCondition(False)
+        sp.setConstant(False)
+    for name, value in net.parameters.items():
+        p = model.createParameter()
+        p.setId(name)
+        p.setValue(value)
+        p.setConstant(True)
+    me, mp = np.asarray(net.educts), np.asarray(net.products)
+    for j, rid in enumerate(net.reaction_ids):
+        rx = model.createReaction()
+        rx.setId(rid)
+        rx.setReversible(False)
+        for mat, add in ((me, rx.createReactant), (mp, rx.createProduct)):
+            for i in np.flatnonzero(mat[:, j]):
+                ref = add()
+                ref.setSpecies(net.species[i])
+                ref.setStoichiometry(float(mat[i, j]))
+                ref.setConstant(True)
+        factors = [net.rate_names[j]] + [
+            net.species[i] if me[i, j] == 1 else f"{net.species[i]}^{me[i, j]}"
+            for i in np.flatnonzero(me[:, j])]
+        rx.createKineticLaw().setMath(libsbml.parseL3Formula(" * ".join(factors)))
+    return libsbml.writeSBMLToString(doc)
+
+
+def to_antimony(net: ReactionNetwork) -> str:
+    """Antimony text of the network, made by libAntimony from :func:`to_sbml`."""
+    import antimony
+
+    antimony.clearPreviousLoads()
+    if antimony.loadSBMLString(to_sbml(net)) < 0:
+        raise MorphogenError(f"network {net.name!r}: Antimony export failed: "
+                             + " ".join(antimony.getLastError().split()))
+    text = antimony.getAntimonyString(None)
+    antimony.clearPreviousLoads()
+    return text
+
+
+def _sbml_id(name: str) -> str:
+    """An SBML SId from a model name (letters, digits, ``_``; not starting with a digit)."""
+    out = "".join(c if c.isascii() and (c.isalnum() or c == "_") else "_" for c in name)
+    return out if out and not out[0].isdigit() else f"m_{out}"
