@@ -21,7 +21,6 @@ import json
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
-import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
@@ -74,6 +73,8 @@ def mass_action(
     diff_names = [f"D_{s}" for s in species]
 
     def reaction(u, p, c):
+        import jax.numpy as jnp
+
         fluxes = []
         for j in range(m):
             v = p[rate_names[j]] * jnp.ones_like(u[0])
@@ -118,7 +119,7 @@ class ReactionNetwork:
         diffusion: default diffusion coefficients (parameters ``D_<species>``), length ``n``.
         initial: homogeneous initial state, if known.
         display: the species shown by default.
-        dt, t_end: suggested time step and simulated time.
+        dt, t_end, init: suggested time step, simulated time and initial condition kind.
     """
 
     name: str
@@ -135,6 +136,7 @@ class ReactionNetwork:
     reference: str = "Yamamoto et al. eqs. 2-3"
     dt: float = 1.0
     t_end: float = 1000.0
+    init: str = "noise"
 
     def __post_init__(self) -> None:
         from morphogen.models.equations import RESERVED
@@ -180,7 +182,7 @@ class ReactionNetwork:
                             self.diffusion, rate_names=self.rate_names,
                             description=self.description, reference=self.reference,
                             display=self.display, ground=initial)
-        return replace(model, dt=self.dt, t_end=self.t_end)
+        return replace(model, dt=self.dt, t_end=self.t_end, init=self.init)
 
 
 def to_toml(net: ReactionNetwork) -> str:
@@ -192,14 +194,15 @@ def to_toml(net: ReactionNetwork) -> str:
         powers = [s if me[i, j] == 1 else f"{s}**{me[i, j]}"
                   for i, s in enumerate(net.species) if me[i, j]]
         flux.append("*".join([k, *powers]))
-    lines = [f"name = {json.dumps(net.name)}"]
+    lines = [f"name = {json.dumps(net.name, ensure_ascii=False)}"]
     if net.description:
-        lines.append(f"description = {json.dumps(net.description)}")
-    lines += [f"reference = {json.dumps(net.reference)}",
+        lines.append(f"description = {json.dumps(net.description, ensure_ascii=False)}")
+    lines += [f"reference = {json.dumps(net.reference, ensure_ascii=False)}",
               f"species = [{', '.join(json.dumps(s) for s in net.species)}]"]
     if net.display:
-        lines.append(f"display = {json.dumps(net.display)}")
-    lines += [f"dt = {net.dt!r}", f"t_end = {net.t_end!r}", 'init = "noise"', "",
+        lines.append(f"display = {json.dumps(net.display, ensure_ascii=False)}")
+    lines += [f"dt = {net.dt!r}", f"t_end = {net.t_end!r}",
+              f"init = {json.dumps(net.init, ensure_ascii=False)}", "",
               "[parameters]"]
     lines += [f"{k} = {v!r}" for k, v in net.parameters.items()]
     lines += ["", "[equations]"]
@@ -211,7 +214,8 @@ def to_toml(net: ReactionNetwork) -> str:
                 sign = "-" if c < 0 else "+"
                 terms.append(f"{sign} {abs(c)}*{flux[j]}" if abs(c) > 1 else f"{sign} {flux[j]}")
         terms.append(f"+ D_{s}*lap({s})")
-        lines.append(f"{s} = {json.dumps(' '.join(terms).removeprefix('+ '))}")
+        equation = " ".join(terms).removeprefix("+ ")
+        lines.append(f"{s} = {json.dumps(equation, ensure_ascii=False)}")
     if net.initial is not None:
         lines += ["", "[initial]"]
         lines += [f"{s} = {float(v)!r}" for s, v in zip(net.species, net.initial, strict=True)]

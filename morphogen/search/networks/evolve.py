@@ -130,7 +130,8 @@ def _save(path: Path, pop: Genome, history: np.ndarray, generation: int, meta: d
     tmp.replace(path)
 
 
-def _load(path: Path) -> tuple[Genome, np.ndarray, int, dict]:
+def load_state(path: Path) -> tuple[Genome, np.ndarray, int, dict]:
+    """A run folder's ``state.npz``: population, fitness history, generations done, settings."""
     import json
 
     with np.load(path) as data:
@@ -164,7 +165,7 @@ def run(
     if resume:
         if not path.exists():
             raise MorphogenError(f"nothing to resume in {out}: no state.npz")
-        pop, history, done, saved = _load(path)
+        pop, history, done, saved = load_state(path)
         if saved != meta:
             raise MorphogenError(f"{out} holds a run with other settings; resume it with those")
     else:
