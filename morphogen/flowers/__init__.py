@@ -4,6 +4,9 @@ Ringham et al. (2021) build flower pigmentation models from a shape, a prepatter
 sequence of simulations (§3.1-3.4); this package supplies the shape and prepattern parts.
 """
 
+from morphogen.flowers.organs import Organ as Organ
+from morphogen.flowers.organs import assemble as assemble
+from morphogen.flowers.organs import orchid as orchid
 from morphogen.flowers.planar import grid_mesh as grid_mesh
 from morphogen.flowers.planar import lattice_mesh as lattice_mesh
 from morphogen.flowers.positional import direction_field as direction_field

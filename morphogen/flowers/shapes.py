@@ -27,7 +27,8 @@ from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
 from morphogen.flowers.meshing import triangulate
 
-SHAPES = ("petal", "corolla", "tube")
+SHAPES = ("petal", "corolla", "tube", "orchid")
+"""Shapes a pipeline's ``[mesh] shape`` accepts (``orchid``: :mod:`morphogen.flowers.organs`)."""
 
 
 def _check(edge: float, **positive: float) -> None:
