@@ -57,8 +57,11 @@ class FuzzResult:
         return self.returncode == 0
 
 
-def fuzz(target: str, seconds: int, artifacts: Path, max_len: int = 4096) -> FuzzResult:
-    """Fuzz ``target`` for ``seconds``; each input may take at most 10 s and 2 GiB.
+def fuzz(target: str, seconds: int, artifacts: Path, max_len: int = 4096,
+         runs: int | None = None, seed: int | None = None) -> FuzzResult:
+    """Fuzz ``target`` for ``seconds`` (or until ``runs`` inputs, if given, whichever comes
+    first); each input may take at most 10 s and 2 GiB. A fixed ``seed`` with ``runs`` replays
+    the same inputs every time (the suite's check); without them each session explores anew.
 
     libFuzzer reads its memory as the process's peak RSS, which a child inherits from the
     process that started it (a pytest worker may hold gigabytes), so the limit is 2 GiB above
@@ -71,13 +74,15 @@ def fuzz(target: str, seconds: int, artifacts: Path, max_len: int = 4096) -> Fuz
         cmd = [sys.executable, "-m", "fuzz.targets", target,
                f"-max_total_time={seconds}", f"-max_len={max_len}", "-timeout=10",
                f"-rss_limit_mb={rss_limit}", "-print_final_stats=1",
-               f"-artifact_prefix={artifacts}/", str(corpus)]
-        proc = subprocess.run(cmd, capture_output=True, text=True,
+               f"-artifact_prefix={artifacts}/",
+               *([f"-runs={runs}"] if runs is not None else []),
+               *([f"-seed={seed}"] if seed is not None else []), str(corpus)]
+        proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                               cwd=Path(__file__).resolve().parent.parent,
                               timeout=seconds + 120)
         kept = len(list(corpus.iterdir()))
-    runs = [int(n) for n in _RUNS.findall(proc.stderr)]
-    return FuzzResult(target, max(runs, default=0), kept, proc.returncode, proc.stderr)
+    runs = [int(n) for n in _RUNS.findall(proc.stdout)]
+    return FuzzResult(target, max(runs, default=0), kept, proc.returncode, proc.stdout)
 
 
 def main(argv: list[str] | None = None) -> int:

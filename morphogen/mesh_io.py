@@ -100,6 +100,10 @@ def _vertex_element(ply, path) -> Any:
     missing = [c for c in _POSITION if c not in names]
     if missing:
         raise MorphogenError(f"PLY file {path}: vertex element lacks {', '.join(missing)}")
+    lists = [c for c in _POSITION if vertex.data[c].dtype == object]
+    if lists:
+        raise MorphogenError(f"PLY file {path}: vertex property {lists[0]} is a list; "
+                             "coordinates must be scalar properties")
     return vertex
 
 
@@ -135,8 +139,14 @@ def _faces(ply, path) -> np.ndarray:
     if key is None:
         raise MorphogenError(f"PLY file {path}: face element lacks vertex_indices")
     polygons = face.data[key]
+    if polygons.dtype != object:
+        raise MorphogenError(f"PLY file {path}: face property {key} must be a list of vertex "
+                             "indices (property list uchar int ...)")
     if len(polygons) == 0:
         raise MorphogenError(f"PLY file {path} has no faces")
+    if any(not np.issubdtype(np.asarray(p).dtype, np.integer) for p in polygons[:1]):
+        raise MorphogenError(f"PLY file {path}: face property {key} holds non-integer indices; "
+                             "declare it with an integer type (e.g. list uchar int)")
     sizes = np.array([len(p) for p in polygons])
     if sizes.min() < 3:
         raise MorphogenError(f"PLY file {path}: face {int(np.argmin(sizes))} has fewer than "

@@ -117,3 +117,29 @@ def test_outputs_and_fields_as_initial_values(tmp_path, mesh):
     assert np.allclose(ply_fields(paths[0])["g"], mesh.fields["g"], atol=1e-7)
     with pytest.raises(MorphogenError, match="state has shape"):
         write_mesh_outputs(tmp_path / "bad", mesh, model, state[:1], "magma")
+
+
+_TRIANGLE = "0 0 0\n1 0 0\n0 1 0\n"
+
+
+@pytest.mark.parametrize("header, body, message", [
+    ("element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+     "element face 1\nproperty int vertex_indices\n", _TRIANGLE + "1\n", "must be a list"),
+    ("element vertex 3\nproperty list uchar float x\nproperty float y\nproperty float z\n"
+     "element face 1\nproperty list uchar int vertex_indices\n",
+     "1 0 0 0\n1 1 0 0\n1 0 1 0\n3 0 1 2\n", "x is a list"),
+    ("element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+     "element face 1\nproperty list uchar float vertex_indices\n", _TRIANGLE + "3 0 1.5 2\n",
+     "non-integer indices"),
+    ("element vertex 3\nproperty double x\nproperty float y\nproperty float z\n"
+     "element face 1\nproperty list uchar int vertex_indices\n",
+     "1e308 0 0\n-1e308 0 0\n0 1 0\n3 0 1 2\n", "infinite area"),
+])
+def test_malformed_properties_are_one_line_errors(tmp_path, header, body, message):
+    """Inputs coverage-guided fuzzing reached: wrong property kinds and overflowing geometry
+    are refused by the loader instead of escaping as TypeError or ValueError."""
+    path = tmp_path / "m.ply"
+    path.write_text(f"ply\nformat ascii 1.0\n{header}end_header\n{body}")
+    with pytest.raises(MorphogenError, match=message) as info:
+        load_mesh(path)
+    assert "\n" not in str(info.value)

@@ -46,7 +46,12 @@ def validate(vertices: np.ndarray, faces: np.ndarray, *, source: str = "mesh") -
     if repeated.any():
         bad = int(np.flatnonzero(repeated)[0])
         raise MorphogenError(f"{source}: face {bad} repeats a vertex (degenerate triangle)")
-    area = face_areas(vertices, faces)
+    with np.errstate(over="ignore", invalid="ignore"):
+        area = face_areas(vertices, faces)
+    if not np.all(np.isfinite(area)):
+        bad = int(np.flatnonzero(~np.isfinite(area))[0])
+        raise MorphogenError(f"{source}: face {bad} has an infinite area (coordinates too "
+                             "large); rescale the mesh")
     small = area <= DEGENERATE_AREA * max(float(area.mean()), np.finfo(float).tiny)
     if small.any():
         bad = int(np.flatnonzero(small)[0])
