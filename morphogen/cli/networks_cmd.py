@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from morphogen.cli import networks_export_cmd
+from morphogen.errors import MorphogenError
 from morphogen.io import ensure_writable_dir, write_atomic, write_json
 from morphogen.progress import ProgressBar
 
@@ -22,10 +24,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "inhibitor-catalyst network (Table 2, §4.1); --mode network evolves the reactions "
         "themselves for 3 species with static inflow/decay and up to --m-max reactions "
         "(§4.2). Defaults are Table 1. Writes DIR/state.npz (resumable), DIR/history.csv "
-        "(fitness per generation and individual) and DIR/best.json (best reaction table).",
+        "(fitness per generation and individual) and DIR/best.json (best reaction table). "
+        "`morphogen networks export DIR|table2 --out FILE` writes a network as a model file, "
+        "Antimony, SBML, PNG or SVG (see `morphogen networks export --help`).",
     )
     p.add_argument("--mode", choices=("rates", "network"), default="rates")
-    p.add_argument("--out", required=True, metavar="DIR", help="run folder")
+    p.add_argument("--out", metavar="DIR", help="run folder (required)")
     p.add_argument("--resume", action="store_true", help="continue the run saved in DIR")
     p.add_argument("--population", type=int, default=150)
     p.add_argument("--generations", type=int, default=100)
@@ -39,6 +43,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--tournament", type=int, default=2)
     p.add_argument("--quiet", action="store_true", help="no progress bar or log")
     p.set_defaults(func=run)
+    actions = p.add_subparsers(dest="action", metavar="{export}", parser_class=type(p))
+    networks_export_cmd.register(actions)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -53,6 +59,8 @@ def run(args: argparse.Namespace) -> int:
     )
     from morphogen.search.networks.operators import Operators
 
+    if args.out is None:
+        raise MorphogenError("morphogen networks needs --out DIR (the run folder)")
     if args.mode == "rates":
         spec = table2_spec()
         template = table2_genome(spec)

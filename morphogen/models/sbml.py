@@ -69,8 +69,7 @@ def read_antimony(text: str, where: str = "Antimony text") -> ReactionNetwork:
 
     antimony.clearPreviousLoads()
     if antimony.loadAntimonyString(text.removeprefix("\ufeff")) < 0:
-        message = " ".join(antimony.getLastError().split()) or "not Antimony"
-        raise MorphogenError(f"{where}: {message}")
+        raise MorphogenError(f"{where}: {_brief(antimony.getLastError()) or 'not Antimony'}")
     module = antimony.getMainModuleName()
     sbml = antimony.getSBMLString(module)
     antimony.clearPreviousLoads()
@@ -90,8 +89,8 @@ def read_sbml(text: str, where: str = "SBML text", name: str = "network") -> Rea
     for i in range(log.getNumErrors()):
         err = log.getError(i)
         if err.isError() or err.isFatal():
-            message = " ".join(err.getMessage().split())
-            raise MorphogenError(f"{where}: not valid SBML (line {err.getLine()}): {message}")
+            raise MorphogenError(f"{where}: not valid SBML (line {err.getLine()}): "
+                                 f"{_brief(err.getMessage())}")
     model = doc.getModel()
     if model is None:
         raise MorphogenError(f"{where}: the SBML document holds no model")
@@ -195,7 +194,12 @@ class _Reader:
                 powers[self.species.index(name)] += exponent
             elif name in self.compartments:
                 continue
-            elif exponent == 1 and (name in local or name in self.params):
+            elif name in local or name in self.params:
+                if not (local.get(name) or self.params[name]).isSetValue():
+                    raise self.fail(f"reaction {rid}: rate law uses {name!r}, which has no "
+                                    "value; declare it as a species or give it a value")
+                if exponent != 1:
+                    raise refuse
                 constants.append(name)
             else:
                 raise self.fail(f"reaction {rid}: rate law uses {name!r}, which is neither a "
@@ -206,8 +210,6 @@ class _Reader:
         if isinstance(k, float):
             return f"k_{rid}", k
         p = local.get(k) or self.params[k]
-        if not p.isSetValue():
-            raise self.fail(f"reaction {rid}: rate constant {k!r} has no value")
         if k in local and k in self.params:
             k = f"{rid}_{k}"
         return k, float(p.getValue())
@@ -287,10 +289,16 @@ def to_antimony(net: ReactionNetwork) -> str:
     antimony.clearPreviousLoads()
     if antimony.loadSBMLString(to_sbml(net)) < 0:
         raise MorphogenError(f"network {net.name!r}: Antimony export failed: "
-                             + " ".join(antimony.getLastError().split()))
+                             + _brief(antimony.getLastError()))
     text = antimony.getAntimonyString(None)
     antimony.clearPreviousLoads()
     return text
+
+
+def _brief(message: str, limit: int = 240) -> str:
+    """A library's error message on one line, cut to ``limit`` characters."""
+    text = " ".join(message.split())
+    return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
 def _sbml_id(name: str) -> str:

@@ -5,8 +5,9 @@ A genome's active slots become reactions with rates ``k = (mantissa / 10) · 10^
 written as exact decimals (two significant digits, §3.2). Slots are named after their role:
 inflow ``∅ → S`` is reaction ``inflow_S`` with rate ``rho_S``, decay ``S → ∅`` is ``decay_S``
 with ``mu_S`` (the ``ρ``, ``μ`` of §2.1), evolvable reactions are ``R1, R2, …`` with ``k1, k2,
-…`` in slot order. Reactions whose rate is 0 change nothing and are left out (Table 3 lists
-some); the diffusion coefficients are the spec's ``D`` (§3.2).
+…`` in slot order (numbered among the active evolvable slots). Reactions whose rate is 0, and
+``∅ → ∅``, change nothing and are left out (Table 3 lists some); the diffusion coefficients are
+the spec's ``D`` (§3.2).
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ def genome_network(
     for j in range(spec.m_max):
         if j >= 2 * n and active[j]:
             evolvable += 1
-        if not active[j] or mant[j] == 0:
+        if not active[j] or mant[j] == 0 or not (me[:, j].any() or mp[:, j].any()):
             continue
         keep.append(j)
         if j < n:
