@@ -1,6 +1,7 @@
 """Antimony/SBML import and export of mass-action networks, round trips, drawings, CLI."""
 
 import json
+from dataclasses import asdict
 
 import jax
 import numpy as np
@@ -17,8 +18,15 @@ from morphogen.models.network import (
 )
 from morphogen.models.sbml import read_antimony, read_sbml, to_antimony, to_sbml
 from morphogen.search.networks.draw import draw_network, reaction_graph
-from morphogen.search.networks.export import genome_network, table2_network
-from morphogen.search.networks.genome import NetworkSpec, make_genome, table2_genome, table2_spec
+from morphogen.search.networks.evolve import Evaluation, save_state
+from morphogen.search.networks.export import genome_network, run_network, table2_network
+from morphogen.search.networks.genome import (
+    NetworkSpec,
+    make_genome,
+    stack,
+    table2_genome,
+    table2_spec,
+)
 from morphogen.search.networks.reaction import genome_params, padded_reaction
 
 SPOTS = """
@@ -255,6 +263,25 @@ def test_cli_exports_table2_and_refuses_bad_sources(tmp_path, capsys):
         err = capsys.readouterr().err.strip()
         assert err.startswith("morphogen: error:") and "\n" not in err
     assert not (tmp_path / "x.xml").exists()
+
+
+def test_run_folder_export_takes_the_best_genome_of_the_last_generation(tmp_path):
+    genomes = [_random_genome(s) for s in (11, 12, 13)]
+    spec = genomes[0][1]
+    pop = stack([g for g, _ in genomes])
+    history = np.array([[9.0, 0.0, 0.0], [-1.0, 7.5, 2.0]], np.float32)
+    meta = {"spec": asdict(spec), "ev": asdict(Evaluation(dt=0.25, t_start=100.0, rounds=3))}
+    save_state(tmp_path / "state.npz", pop, history, 2, meta)
+    net, fitness = run_network(tmp_path)
+    assert fitness == 7.5 and (net.dt, net.t_end) == (0.25, 500.0)
+    out = tmp_path / "best.xml"
+    assert main(["networks", "export", str(tmp_path), "--out", str(out)]) == 0
+    model = load_model(out)
+    genome = genomes[1][0]
+    p = genome_params(genome, spec)
+    u = _states(3, seed=8)
+    want = np.asarray(padded_reaction(u, p["k"], p["Me"], p["Mp"]))
+    np.testing.assert_allclose(_term(model, u), want, rtol=2e-5, atol=1e-5 * np.abs(want).max())
 
 
 def test_reaction_network_rejects_inconsistent_data():

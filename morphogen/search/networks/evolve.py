@@ -121,7 +121,9 @@ def evaluate(pop: Genome, u0: Array, spec: NetworkSpec, ev: Evaluation,
     return np.asarray(fitness, np.float32), np.asarray(u, np.float32)
 
 
-def _save(path: Path, pop: Genome, history: np.ndarray, generation: int, meta: dict) -> None:
+def save_state(path: Path, pop: Genome, history: np.ndarray, generation: int,
+               meta: dict) -> None:
+    """Write a run folder's ``state.npz`` atomically (read back by :func:`load_state`)."""
     import json
 
     tmp = path.with_suffix(".tmp.npz")
@@ -182,7 +184,7 @@ def run(
         u0 = initial_state(jax.random.fold_in(root, 2 * gen + 2), spec, ev)
         fitness, _ = evaluate(pop, u0, spec, ev, progress)
         history = np.concatenate([history, fitness[None]])
-        _save(path, pop, history, gen + 1, meta)
+        save_state(path, pop, history, gen + 1, meta)
         valid = fitness > INVALID
         log(f"generation {gen + 1}/{generations}: best {fitness.max():.2f}, "
             f"mean valid {fitness[valid].mean() if valid.any() else float('nan'):.2f}, "
