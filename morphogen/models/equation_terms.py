@@ -18,8 +18,6 @@ from __future__ import annotations
 
 import ast
 
-import jax.numpy as jnp
-
 from morphogen.models.expr import error_at
 from morphogen.models.model import Array, Tensor
 
@@ -57,6 +55,8 @@ def principal_tensor(angle: Array, along: Array, across: Array) -> Tensor:
     with ``along`` = :math:`\\lambda_1`, ``across`` = :math:`\\lambda_2`, ``angle`` =
     :math:`\\theta` in radians from the x axis; the flux is Ringham eq. 8.
     """
+    import jax.numpy as jnp
+
     cos, sin = jnp.cos(angle), jnp.sin(angle)
     return Tensor(
         xx=along * cos * cos + across * sin * sin,

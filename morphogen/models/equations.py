@@ -37,8 +37,6 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-import jax.numpy as jnp
-
 from morphogen import guard
 from morphogen.errors import MorphogenError
 from morphogen.models.equation_terms import check_coefficient, principal_tensor, split_equation
@@ -203,6 +201,8 @@ def _reaction(species: tuple[str, ...], terms: Sequence[Evaluator]):
     """``R(u, p, c)``: every reaction expression, stacked to shape ``(S, *spatial)``."""
 
     def reaction(u: Array, p: Params, c: Mapping[str, Array]) -> Array:
+        import jax.numpy as jnp
+
         env = {**p, **c}
         env.update((s, u[i]) for i, s in enumerate(species))
         shape = u.shape[1:]

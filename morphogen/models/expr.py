@@ -14,6 +14,8 @@ Equation text is untrusted (model files, the web app), so it is never handed to 
 3. The result is a tree of closures over :mod:`jax.numpy`: evaluating it with an environment
    ``{name: array}`` traces ordinary JAX operations, so compiled expressions are jit-, vmap- and
    grad-friendly and parameters stay runtime values (never pasted into the program as literals).
+   JAX itself is imported when a compiled expression is first evaluated, so parsing and checking
+   names (model files, ``morphogen models``) do not load it.
 """
 
 from __future__ import annotations
@@ -23,9 +25,6 @@ import unicodedata
 from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 from typing import Any
-
-import jax
-import jax.numpy as jnp
 
 from morphogen.errors import MorphogenError
 
@@ -43,43 +42,72 @@ MAX_INTEGER_POWER = 64
 """``x**n`` with an integer literal ``|n|`` up to this is exact repeated multiplication."""
 
 
+def _jnp(name: str) -> Callable[..., Array]:
+    """The function ``jax.numpy.<name>``, looked up when called (JAX is imported then)."""
+
+    def call(*args: Array) -> Array:
+        import jax.numpy as jnp
+
+        return getattr(jnp, name)(*args)
+
+    call.__name__ = name
+    return call
+
+
+def _sigmoid(x: Array) -> Array:
+    """``1 / (1 + exp(-x))``."""
+    import jax
+
+    return jax.nn.sigmoid(x)
+
+
+def _integer_pow(x: Array, n: int) -> Array:
+    """``x**n`` by repeated multiplication (exact for a small integer ``n``)."""
+    import jax
+    import jax.numpy as jnp
+
+    return jax.lax.integer_pow(jnp.asarray(x), n)
+
+
 def _lerp(a: Array, b: Array, t: Array) -> Array:
     """``a + (b - a) * t``."""
+    import jax.numpy as jnp
+
     return jnp.add(a, jnp.multiply(jnp.subtract(b, a), t))
 
 
 FUNCTIONS: dict[str, tuple[int, Callable[..., Array], str]] = {
-    "exp": (1, jnp.exp, "exp(x)"),
-    "log": (1, jnp.log, "natural logarithm log(x)"),
-    "sqrt": (1, jnp.sqrt, "sqrt(x)"),
-    "abs": (1, jnp.abs, "abs(x)"),
-    "tanh": (1, jnp.tanh, "tanh(x)"),
-    "sin": (1, jnp.sin, "sin(x)"),
-    "cos": (1, jnp.cos, "cos(x)"),
-    "sigmoid": (1, jax.nn.sigmoid, "1 / (1 + exp(-x))"),
-    "min": (2, jnp.minimum, "elementwise min(a, b)"),
-    "max": (2, jnp.maximum, "elementwise max(a, b)"),
-    "pow": (2, jnp.power, "pow(a, b) = a**b"),
-    "where": (3, jnp.where, "where(condition, a, b): a where condition holds, else b"),
+    "exp": (1, _jnp("exp"), "exp(x)"),
+    "log": (1, _jnp("log"), "natural logarithm log(x)"),
+    "sqrt": (1, _jnp("sqrt"), "sqrt(x)"),
+    "abs": (1, _jnp("abs"), "abs(x)"),
+    "tanh": (1, _jnp("tanh"), "tanh(x)"),
+    "sin": (1, _jnp("sin"), "sin(x)"),
+    "cos": (1, _jnp("cos"), "cos(x)"),
+    "sigmoid": (1, _sigmoid, "1 / (1 + exp(-x))"),
+    "min": (2, _jnp("minimum"), "elementwise min(a, b)"),
+    "max": (2, _jnp("maximum"), "elementwise max(a, b)"),
+    "pow": (2, _jnp("power"), "pow(a, b) = a**b"),
+    "where": (3, _jnp("where"), "where(condition, a, b): a where condition holds, else b"),
     "lerp": (3, _lerp, "lerp(a, b, t) = a + (b - a)*t"),
-    "clip": (3, jnp.clip, "clip(x, lo, hi)"),
+    "clip": (3, _jnp("clip"), "clip(x, lo, hi)"),
 }
 """Whitelisted functions: name -> (number of arguments, implementation, description)."""
 
 _BINARY = {
-    ast.Add: (jnp.add, "+"),
-    ast.Sub: (jnp.subtract, "-"),
-    ast.Mult: (jnp.multiply, "*"),
-    ast.Div: (jnp.divide, "/"),
-    ast.Pow: (jnp.power, "**"),
+    ast.Add: (_jnp("add"), "+"),
+    ast.Sub: (_jnp("subtract"), "-"),
+    ast.Mult: (_jnp("multiply"), "*"),
+    ast.Div: (_jnp("divide"), "/"),
+    ast.Pow: (_jnp("power"), "**"),
 }
 _COMPARE = {
-    ast.Lt: jnp.less,
-    ast.LtE: jnp.less_equal,
-    ast.Gt: jnp.greater,
-    ast.GtE: jnp.greater_equal,
-    ast.Eq: jnp.equal,
-    ast.NotEq: jnp.not_equal,
+    ast.Lt: _jnp("less"),
+    ast.LtE: _jnp("less_equal"),
+    ast.Gt: _jnp("greater"),
+    ast.GtE: _jnp("greater_equal"),
+    ast.Eq: _jnp("equal"),
+    ast.NotEq: _jnp("not_equal"),
 }
 _ALLOWED = (
     "numbers, names, + - * / **, unary -, comparisons < <= > >= == != inside where(), "
@@ -378,12 +406,13 @@ def _compile(node: ast.AST, text: str, names: frozenset[str], what: str) -> Eval
         operand = _compile(node.operand, text, names, what)
         if isinstance(node.op, ast.UAdd):
             return operand
-        return lambda env: jnp.negative(operand(env))
+        negative = _jnp("negative")
+        return lambda env: negative(operand(env))
     if isinstance(node, ast.BinOp):
         left = _compile(node.left, text, names, what)
         if isinstance(node.op, ast.Pow) and _small_integer(node.right):
             n = int(node.right.value)
-            return lambda env: jax.lax.integer_pow(jnp.asarray(left(env)), n)
+            return lambda env: _integer_pow(left(env), n)
         right = _compile(node.right, text, names, what)
         fn = _BINARY[type(node.op)][0]
         return lambda env: fn(left(env), right(env))
@@ -443,12 +472,13 @@ def _comparison(node: ast.Compare, text: str, names: frozenset[str], what: str) 
     """``a < b <= c`` means ``(a < b) and (b <= c)``, as in Python."""
     operands = [_compile(sub, text, names, what) for sub in (node.left, *node.comparators)]
     tests = [_COMPARE[type(op)] for op in node.ops]
+    logical_and = _jnp("logical_and")
 
     def evaluate(env: Env) -> Array:
         values = [f(env) for f in operands]
         result = tests[0](values[0], values[1])
         for i, test in enumerate(tests[1:], start=1):
-            result = jnp.logical_and(result, test(values[i], values[i + 1]))
+            result = logical_and(result, test(values[i], values[i + 1]))
         return result
 
     return evaluate

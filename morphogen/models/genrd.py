@@ -22,8 +22,6 @@ from __future__ import annotations
 
 import itertools
 
-import jax.numpy as jnp
-
 from morphogen.models.model import Model
 
 EPS = 1e-6
@@ -66,6 +64,8 @@ def _polynomial(p, kind: str, s: str, t: int, powers_u, powers_v):
 
 
 def _reaction(u, p, c):
+    import jax.numpy as jnp
+
     a, b = u[0], u[1]
     pu = (jnp.ones_like(a), a, a * a)
     pv = (jnp.ones_like(b), b, b * b)

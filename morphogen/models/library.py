@@ -9,12 +9,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
 from morphogen.models.genrd import genrd
-from morphogen.models.model import Model, Params
+from morphogen.models.model import Array, Model, Params
 from morphogen.models.network import yamamoto_activator_inhibitor
 
 LIBRARY: dict[str, Callable[[], Model]] = {}
@@ -35,6 +34,17 @@ def get_model(name: str) -> Model:
             "(or give a model file ending in .toml)"
         )
     return LIBRARY[name]()
+
+
+def _stack(*rates: Array) -> Array:
+    """The reaction rates as one array ``(S, *spatial)``.
+
+    JAX is imported here, when a model's reaction is first evaluated, not when the library is
+    imported: listing the models (``morphogen models``) stays fast.
+    """
+    import jax.numpy as jnp
+
+    return jnp.stack(rates)
 
 
 def _coefficients(*names: str) -> Callable[[Params, dict], tuple]:
@@ -73,7 +83,7 @@ _GS_RICHARD = {
 def _gray_scott_reaction(u, p, c):
     a, b = u[0], u[1]
     r = a * b * b
-    return jnp.stack([-r + p["F"] * (1.0 - a), r - (p["F"] + p["k"]) * b])
+    return _stack(-r + p["F"] * (1.0 - a), r - (p["F"] + p["k"]) * b)
 
 
 @register
@@ -108,7 +118,7 @@ def _gm_reaction(u, p, c):
     rho = p["rho"]
     du = rho * (b * b - p["nu"] * a)
     dv = rho * (b * b / (a * (1.0 + p["kappa"] * b * b)) - p["mu"] * b)
-    return jnp.stack([du, dv])
+    return _stack(du, dv)
 
 
 def _gm_ground(p) -> tuple[float, float]:
@@ -150,7 +160,7 @@ def gierer_meinhardt() -> Model:
 def _schnakenberg_reaction(u, p, c):
     a, b = u[0], u[1]
     r = a * a * b
-    return jnp.stack([p["a"] - a + r, p["b"] - r])
+    return _stack(p["a"] - a + r, p["b"] - r)
 
 
 @register
@@ -179,7 +189,7 @@ def schnakenberg() -> Model:
 def _brusselator_reaction(u, p, c):
     a, b = u[0], u[1]
     r = a * a * b
-    return jnp.stack([p["a"] - (p["b"] + 1.0) * a + r, p["b"] * a - r])
+    return _stack(p["a"] - (p["b"] + 1.0) * a + r, p["b"] * a - r)
 
 
 @register
@@ -208,7 +218,7 @@ def brusselator() -> Model:
 
 def _fhn_reaction(u, p, c):
     a, b = u[0], u[1]
-    return jnp.stack([a - a**3 - b + p["alpha"], p["epsilon"] * (a - p["a1"] * b - p["a0"])])
+    return _stack(a - a**3 - b + p["alpha"], p["epsilon"] * (a - p["a1"] * b - p["a0"]))
 
 
 @register
@@ -240,7 +250,7 @@ def _activator_inhibitor_reaction(u, p, c):
     a, h = u[0], u[1]
     da = p["rho_a"] * a * a / (h + p["kappa"]) + p["rho_a0"] - p["mu_a"] * a
     dh = p["rho_h"] * a * a + p["rho_h0"] - p["mu_h"] * h
-    return jnp.stack([da, dh])
+    return _stack(da, dh)
 
 
 @register
@@ -274,7 +284,7 @@ def activator_inhibitor() -> Model:
 
 def _turing_reaction(u, p, c):
     a, b = u[0], u[1]
-    return jnp.stack([p["rho"] * (p["alpha"] - a * b), p["rho"] * (a * b - b - p["beta"])])
+    return _stack(p["rho"] * (p["alpha"] - a * b), p["rho"] * (a * b - b - p["beta"]))
 
 
 @register
@@ -312,7 +322,7 @@ def turing() -> Model:
 def _activator_substrate_reaction(u, p, c):
     a, s = u[0], u[1]
     r = p["rho"] * s * a * a
-    return jnp.stack([r + p["rho_a0"] - p["mu_a"] * a, -r + p["rho_s0"] - p["mu_s"] * s])
+    return _stack(r + p["rho_a0"] - p["mu_a"] * a, -r + p["rho_s0"] - p["mu_s"] * s)
 
 
 @register

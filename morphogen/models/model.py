@@ -18,7 +18,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
-import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
@@ -171,6 +170,7 @@ def _scalar(value: Any) -> float:
 
 def _newton_steady_state(model: Model, params: Params) -> np.ndarray:
     import jax
+    import jax.numpy as jnp
 
     coords = {"x": 0.5, "y": 0.5, "z": 0.5, "t": 0.0}
     p = {k: jnp.asarray(v, jnp.float32) for k, v in params.items()}
