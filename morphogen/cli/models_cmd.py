@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
-from morphogen.models.library import LIBRARY, get_model
-from morphogen.models.model import Model
+if TYPE_CHECKING:
+    from morphogen.models.model import Model
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -36,6 +37,8 @@ def describe(model: Model) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from morphogen.models.library import LIBRARY, get_model
+
     names = [args.name] if args.name else list(LIBRARY)
     blocks = []
     for name in names:

@@ -11,7 +11,6 @@ import os
 from typing import Any
 
 from morphogen.errors import MorphogenError
-from morphogen.fields import parse_value
 
 
 def size(text: str) -> list[int]:
@@ -34,6 +33,8 @@ def size(text: str) -> list[int]:
 
 def assignments(items: list[str] | None, flag: str = "-p") -> dict[str, Any]:
     """``["F=0.03", "k=0.05+0.01*x"]`` -> ``{"F": 0.03, "k": "0.05+0.01*x"}``."""
+    from morphogen.fields import parse_value
+
     out: dict[str, Any] = {}
     for item in items or []:
         name, sep, value = item.partition("=")

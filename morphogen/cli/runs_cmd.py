@@ -5,10 +5,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from morphogen.cli.evolve_cmd import gene_summary
 from morphogen.errors import MorphogenError
 from morphogen.search.archive import Archive
-from morphogen.search.run import resolve_run
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -29,6 +27,8 @@ def run(args: argparse.Namespace) -> int:
     if args.action == "show":
         if not args.run:
             raise MorphogenError("give the run to show: morphogen runs show RUN")
+        from morphogen.search.run import resolve_run
+
         run_id, archive = resolve_run(args.run, args.archive)
         print(show(archive, run_id))
         return 0
@@ -57,6 +57,8 @@ def listing(archive: Archive) -> str:
 
 def show(archive: Archive, run_id: str) -> str:
     """A run's settings, a table of generations and its best individuals."""
+    from morphogen.cli.evolve_cmd import gene_summary
+
     r = archive.run(run_id)
     c = r["config"]
     p, s = c["problem"], c["strategy"]

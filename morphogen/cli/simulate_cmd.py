@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from morphogen.cli import options
 from morphogen.errors import MorphogenError
-from morphogen.runfile import RunConfig, execute, load_run_file
+
+if TYPE_CHECKING:
+    from morphogen.runfile import RunConfig
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -66,6 +69,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def config_from_args(args: argparse.Namespace) -> RunConfig:
     """A :class:`RunConfig` from command-line arguments (or from ``--config``, with flags
     given on the command line taking precedence)."""
+    from morphogen.runfile import RunConfig, load_run_file
+
     if args.config:
         config = load_run_file(args.config)
     elif args.model:
@@ -115,6 +120,8 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
 
 
 def run(args: argparse.Namespace) -> int:
+    from morphogen.runfile import execute
+
     config = config_from_args(args)
     out = Path(args.out or Path("out") / Path(config.model).stem)
     solution = execute(config, out, progress=options.show_progress(args))
