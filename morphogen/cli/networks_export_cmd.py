@@ -58,5 +58,5 @@ def run(args: argparse.Namespace) -> int:
     else:
         net, _ = run_network(source)
     write_network(net, fmt, out, evolvable_only=genome and not args.all_reactions)
-    print(f"wrote {out} ({fmt}, {len(net.reaction_ids)} reactions)")
+    print(f"wrote {out} ({fmt})")
     return 0
