@@ -133,7 +133,8 @@ def reaction_jacobians(model: Model, params: Params, batched: bool) -> np.ndarra
         return jax.jacfwd(f)(u)
 
     p = {k: jnp.asarray(v, jnp.float32) for k, v in means.items()}
-    out = np.asarray(jax.vmap(jac)(jnp.asarray(ground, jnp.float32), p), np.float64)
+    # One compiled program: op by op, the Jacobian compiles dozens of tiny ones (seconds).
+    out = np.asarray(jax.jit(jax.vmap(jac))(jnp.asarray(ground, jnp.float32), p), np.float64)
     return np.where(np.isfinite(out).all(axis=(1, 2), keepdims=True), out, 0.0)
 
 
