@@ -143,6 +143,8 @@ def test_non_mass_action_rate_law_is_refused_naming_the_reaction(law):
     ("model m\n  J1: A - > B; k*A\nend", "syntax error"),
     ("model m\n  J1: A -> B; k*A\nend", "uses 'k', which has no value"),
     ("model m\n  J1: $A -> B; k*A\n  k = 1\nend", "boundary or constant"),
+    ("model m\n  J1: x -> y; k*x\n  k = 1\nend", "'x' is reserved"),
+    ("model m\n  J1: 1.5 A -> B; k*A\n  k = 1\nend", "stoichiometry 1.5 of A"),
     ("model m\n  compartment V = 2; species A in V, B in V\n  J1: A -> B; k*A\n  k = 1\nend",
      "size 1"),
 ])

@@ -159,8 +159,9 @@ class ReactionNetwork:
                                  "rate parameters and D_<species>")
         for name in names + list(self.rate_names):
             if not name.isidentifier() or name.startswith("_") or name in RESERVED:
-                raise MorphogenError(f"network {self.name!r}: name {name!r} is not usable in "
-                                     "morphogen expressions; rename it (letters, digits, _)")
+                raise MorphogenError(f"network {self.name!r}: name {name!r} is reserved or not "
+                                     "an identifier in morphogen expressions (x, y, z, t, lap "
+                                     "and function names are taken); rename it")
         shared: dict[str, float] = {}
         for rid, name, k in zip(self.reaction_ids, self.rate_names, self.rates, strict=True):
             if shared.setdefault(name, k) != k:
