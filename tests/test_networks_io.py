@@ -255,6 +255,10 @@ def test_cli_exports_table2_and_refuses_bad_sources(tmp_path, capsys):
     assert (model.dt, model.t_end, model.init) == (0.1, 3800.0, "noise")
     u = _states(3, seed=5)
     np.testing.assert_allclose(_term(model, u), _term(want, u), rtol=1e-6)
+    assert main(["networks", "export", "yamamoto-network", "--out", str(tmp_path / "y.xml")]) == 0
+    u = _states(3, seed=6)
+    np.testing.assert_allclose(_term(load_model(tmp_path / "y.xml"), u),
+                               _term(yamamoto_activator_inhibitor(), u), rtol=1e-6)
     assert main(["networks", "export", "table2", "--out", str(tmp_path / "t2.png")]) == 0
     assert (tmp_path / "t2.png").read_bytes()[:4] == b"\x89PNG"
     capsys.readouterr()

@@ -17,13 +17,16 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="write a network as a model file, Antimony, SBML, PNG or SVG",
         description="Export a reaction network. SOURCE is a `morphogen networks` run folder "
         "(its best genome of the last saved generation), 'table2' (the hand-made network of "
-        "Yamamoto et al. Table 2), or an Antimony (.ant) or SBML (.xml) file. Formats: toml (a "
-        "model file for `morphogen simulate`), antimony, sbml, png and svg (a drawing as in "
+        "Yamamoto et al. Table 2, species A B C), 'yamamoto-network' (the same network as the "
+        "library model of that name, species a h c), or an Antimony (.ant) or SBML (.xml) "
+        "file. Formats: toml (a model file for `morphogen simulate`), antimony, sbml, png and "
+        "svg (a drawing as in "
         "Yamamoto Fig. 7: dots are reactions, lines educts, arrows products, dotted arrows "
         "catalysts, numbers stoichiometric coefficients). Reactions of rate 0 are left out; "
         "species diffuse with the parameters D_<species>.",
     )
-    p.add_argument("source", metavar="SOURCE", help="run folder, 'table2', or a .ant/.xml file")
+    p.add_argument("source", metavar="SOURCE",
+                   help="run folder, 'table2', 'yamamoto-network', or a .ant/.xml file")
     p.add_argument("--format", choices=FORMATS, default=None,
                    help="output format (default: from the --out suffix)")
     p.add_argument("--out", required=True, metavar="FILE", help="file to write")
@@ -47,6 +50,10 @@ def run(args: argparse.Namespace) -> int:
     genome = True
     if args.source == "table2":
         net = table2_network()
+    elif args.source == "yamamoto-network":
+        from morphogen.models.network import yamamoto_network
+
+        net, genome = yamamoto_network(), False
     elif source.suffix.lower() in NETWORK_FILES and not source.is_dir():
         from morphogen.models.sbml import read_network_file
 
