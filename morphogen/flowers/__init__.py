@@ -7,6 +7,7 @@ sequence of simulations (§3.1-3.4); this package supplies the shape and prepatt
 from morphogen.flowers.organs import Organ as Organ
 from morphogen.flowers.organs import assemble as assemble
 from morphogen.flowers.organs import orchid as orchid
+from morphogen.flowers.organs import urn_flower as urn_flower
 from morphogen.flowers.planar import grid_mesh as grid_mesh
 from morphogen.flowers.planar import lattice_mesh as lattice_mesh
 from morphogen.flowers.positional import direction_field as direction_field
@@ -18,6 +19,7 @@ from morphogen.flowers.shapes import SHAPES as SHAPES
 from morphogen.flowers.shapes import corolla as corolla
 from morphogen.flowers.shapes import petal as petal
 from morphogen.flowers.shapes import tube as tube
+from morphogen.flowers.shapes import urn as urn
 from morphogen.flowers.veins import VeinGraph as VeinGraph
 from morphogen.flowers.veins import space_colonisation as space_colonisation
 from morphogen.flowers.veins import vein_fields as vein_fields

@@ -5,12 +5,14 @@ separate blade that morphogens cannot cross. :func:`assemble` places blades made
 :func:`~morphogen.flowers.shapes.petal` around the flower centre as disconnected components of
 one :class:`~morphogen.domains.mesh.Mesh`: blade ``k`` is rotated about ``z`` so that its
 midline points at angle ``a_k`` from the +x axis, its base moved ``offset_k`` out from the
-centre and lifted by ``lift_k`` (later organs lie in front of earlier ones in a view from +z).
-The blades' own fields (``s``, ``lateral``, sets ``margin``, ``base``, ``midline``) are kept,
-and each vertex gets
+centre and lifted by ``lift_k`` (later organs lie in front of earlier ones in a view from +z);
+``tilt_k`` first turns the blade about its base line, raising its tip towards +z. A whole
+corolla (e.g. an :func:`~morphogen.flowers.shapes.urn`) is an organ too, placed as it is with
+``angle = 90``. The organs' own fields (``s``, ``lateral``, sets ``margin``, ``base``,
+``midline``, ...) are kept; a field that some organ lacks is 0 on that organ. Each vertex gets
 
 - ``organ``: the organ's index (in the order given), and one 0/1 set per organ kind
-  (``sepal``, ``petal``, ``lip``);
+  (``sepal``, ``petal``, ``lip``, ``corolla``);
 - ``r``: distance from the flower centre in the plane, divided by its maximum.
 
 Diffusion on the assembled mesh stays inside each organ (no edge joins two organs), as
@@ -21,26 +23,28 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
 
-ORGAN_KINDS = ("sepal", "petal", "lip")
+ORGAN_KINDS = ("sepal", "petal", "lip", "corolla")
 
 
 @dataclass(frozen=True)
 class Organ:
-    """One blade of a flower: its mesh (base on the x axis, midline along +y), kind, the
-    direction of its midline (degrees from +x), the distance of its base from the centre and
-    its height."""
+    """One organ of a flower: its mesh (a blade: base on the x axis, midline along +y), kind,
+    the direction of its midline (degrees from +x), the distance of its base from the centre,
+    its height and its tilt (degrees, about the base line)."""
 
     mesh: Mesh
     kind: str
     angle: float
     offset: float = 0.0
     lift: float = 0.0
+    tilt: float = 0.0
 
 
 def assemble(organs: Sequence[Organ], name: str = "flower") -> Mesh:
@@ -52,20 +56,23 @@ def assemble(organs: Sequence[Organ], name: str = "flower") -> Mesh:
     if unknown:
         raise MorphogenError(f"unknown organ kind {unknown[0]!r}; use one of "
                              f"{', '.join(ORGAN_KINDS)}")
-    common = set.intersection(*(set(o.mesh.fields) for o in organs))
-    verts, faces, fields = [], [], {k: [] for k in sorted(common) + ["organ", *ORGAN_KINDS]}
+    names = sorted(set().union(*(o.mesh.fields for o in organs)))
+    verts, faces, fields = [], [], {k: [] for k in names + ["organ", *ORGAN_KINDS]}
     start = 0
     for index, organ in enumerate(organs):
         v = organ.mesh.vertices
+        t = np.radians(organ.tilt)
+        v = np.stack([v[:, 0], v[:, 1] * np.cos(t) - v[:, 2] * np.sin(t),
+                      v[:, 1] * np.sin(t) + v[:, 2] * np.cos(t)], 1)
         a = np.radians(organ.angle - 90.0)  # the blade's +y axis turned to `angle`
         rot = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0, 0, 1]])
         shift = organ.offset * np.array([np.cos(np.radians(organ.angle)),
                                          np.sin(np.radians(organ.angle)), 0.0])
         verts.append(v @ rot.T + shift + [0.0, 0.0, organ.lift])
         faces.append(organ.mesh.faces + start)
-        for key in common:
-            fields[key].append(organ.mesh.fields[key])
         n = len(v)
+        for key in names:
+            fields[key].append(organ.mesh.fields.get(key, np.zeros(n)))
         fields["organ"].append(np.full(n, float(index)))
         for kind in ORGAN_KINDS:
             fields[kind].append(np.full(n, float(organ.kind == kind)))
@@ -119,3 +126,39 @@ def orchid(
         Organ(side, "petal", 15.0, gap, 0.06 * size),
         Organ(labellum, "lip", 270.0, gap, 0.1 * size),
     ], name="orchid")
+
+
+def urn_flower(
+    sepals: int = 5,
+    *,
+    sepal_length: float = 0.22,
+    sepal_width: float = 0.16,
+    tilt: float = 40.0,
+    edge: float = 0.02,
+    **corolla: Any,
+) -> Mesh:
+    """An :func:`~morphogen.flowers.shapes.urn` corolla (keyword arguments ``corolla``) with a
+    calyx of ``sepals`` small blades around the pedicel (Arctostaphylos, Ringham §4.2): each
+    sepal starts at the urn's pedicel ring, between two lobes, raised by ``tilt`` degrees
+    towards the corolla and lowered by a quarter of its length to lie under the urn.
+    """
+    from morphogen.flowers.shapes import petal, urn
+
+    if not (isinstance(sepals, int | np.integer) and 0 <= sepals <= 20):
+        raise MorphogenError(f"sepals must be an integer from 0 to 20, got {sepals}")
+    for label, value in (("sepal_length", sepal_length), ("sepal_width", sepal_width)):
+        if not (np.isfinite(value) and value > 0):
+            raise MorphogenError(f"urn_flower: {label} must be a positive number, got {value}")
+    if not 0 <= tilt <= 90:
+        raise MorphogenError(f"urn_flower: tilt must be in [0, 90] degrees, got {tilt}")
+    body = urn(edge=edge, **corolla)
+    organs = [Organ(body, "corolla", 90.0)]
+    if sepals:
+        blade = petal(sepal_length, sepal_width, edge=edge, notch=0.0, cup=0.1, curl=0.0,
+                      base_width=0.5)
+        lobes = int(np.max(body.fields["lobe"])) + 1
+        ring = float(np.linalg.norm(body.vertices[body.fields["base"] > 0.5, :2], axis=1).mean())
+        for k in range(sepals):
+            angle = 360.0 * (k + 0.5 * (sepals == lobes)) / sepals
+            organs.append(Organ(blade, "sepal", angle, 0.9 * ring, -0.25 * sepal_length, tilt))
+    return assemble(organs, name="urn-flower")

@@ -14,6 +14,7 @@ corolla       fields ``r`` (0 centre .. 1 outer tip), ``theta``, ``petal`` (inde
 tube          fields ``s`` (0 base, 1 at the mouth of the tube, >1 on the lobes), ``theta``,
               ``side`` (``sin theta``: -1 lower, +1 upper), ``lobe``; sets ``margin``,
               ``base``, ``throat``, ``tube``, ``midline``
+urn           as ``tube``: a bulging body narrowing to the mouth, small recurved lobes
 ============  ==========================================================================
 """
 
@@ -27,8 +28,9 @@ from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
 from morphogen.flowers.meshing import triangulate
 
-SHAPES = ("petal", "corolla", "tube", "orchid")
-"""Shapes a pipeline's ``[mesh] shape`` accepts (``orchid``: :mod:`morphogen.flowers.organs`)."""
+SHAPES = ("petal", "corolla", "tube", "urn", "urn_flower", "orchid")
+"""Shapes a pipeline's ``[mesh] shape`` accepts (``urn_flower`` and ``orchid``:
+:mod:`morphogen.flowers.organs`)."""
 
 
 def _check(edge: float, **positive: float) -> None:
@@ -203,14 +205,24 @@ def tube(
     mouth = radius * 1.3 if mouth is None else mouth
     _check(edge, mouth=mouth)
     s, rho, z = _profile(length, radius, mouth, flare, bend, lobe_length)
+    return _revolve(s, rho, z, length, length + 0.25 * bend, bend * 0.75 + lobe_length,
+                    lobes=lobes, notch=notch, lobe_scales=lobe_scales, edge=edge,
+                    name=f"tube-{lobes}")
+
+
+def _revolve(s, rho, z, length, limb_start, limb_span, *, lobes, notch, lobe_scales, edge,
+             name):
+    """Mesh the surface of revolution of the profile ``s -> (rho, z)`` up to the lobed rim
+    ``s = limb_start + limb_span * lobe(theta)``, through its conformal plane (see ``tube``);
+    ``length`` is the arc length of the throat (``s = 1`` there)."""
     log_r = np.concatenate([[0.0], np.cumsum(np.diff(s) / (0.5 * (rho[1:] + rho[:-1])))])
     theta = np.linspace(0, 2 * np.pi, 4000, endpoint=False)
     shape, _, _ = _lobes(theta, lobes, notch, 0, 0.0, lobe_scales)
-    s_max = length + 0.25 * bend + (bend * 0.75 + lobe_length) * np.clip(shape, 0, None)
+    s_max = limb_start + limb_span * np.clip(shape, 0, None)
     if s_max.max() > s[-1]:
         s_max = np.minimum(s_max, s[-1])
     r_out = np.exp(np.interp(s_max, s, log_r))
-    ring = np.linspace(0, 2 * np.pi, max(int(2 * np.pi * radius / edge), 12), endpoint=False)
+    ring = np.linspace(0, 2 * np.pi, max(int(2 * np.pi * rho[0] / edge), 12), endpoint=False)
     loops = [np.stack([r_out * np.cos(theta), r_out * np.sin(theta)], 1),
              np.stack([np.cos(ring), np.sin(ring)], 1)]
 
@@ -237,4 +249,60 @@ def tube(
         "tube": (arc <= length).astype(float),
         "midline": (np.abs(across) * np.pi / lobes * radial <= 0.5 * edge).astype(float),
     }
-    return Mesh(xyz, tri, fields=fields, name=f"tube-{lobes}")
+    return Mesh(xyz, tri, fields=fields, name=name)
+
+
+def urn(
+    lobes: int = 5,
+    length: float = 1.0,
+    *,
+    radius: float = 0.12,
+    belly: float = 0.4,
+    waist: float = 0.4,
+    mouth: float = 0.14,
+    lobe_length: float = 0.12,
+    flare: float = 110.0,
+    edge: float = 0.02,
+    notch: float = 0.0,
+) -> Mesh:
+    """An urn-shaped corolla along +z (Arctostaphylos, Erica): from a pedicel ring of
+    ``radius`` the body bulges to ``belly`` at ``waist * length`` and narrows to ``mouth`` at
+    ``length``, then ``lobes`` short lobes (``lobe_length`` beyond the mouth, fused over their
+    first 30 %) turn outwards by ``flare`` degrees.
+
+    Body profile: ``rho = radius + (belly - radius) sin(pi/2 z/z_b)`` below the belly
+    (``z_b = waist * length``), ``rho = mouth + (belly - mouth) cos(pi/2 (z - z_b)/(L - z_b))``
+    above it; the lobes continue from the mouth's direction, turning smoothly to ``flare``
+    over their first half. Fields and sets as for :func:`tube` (``s = 1`` at the mouth).
+    """
+    _check(edge, length=length, radius=radius, belly=belly, mouth=mouth,
+           lobe_length=lobe_length)
+    if not (isinstance(lobes, int | np.integer) and 2 <= lobes <= 40):
+        raise MorphogenError(f"lobes must be an integer from 2 to 40, got {lobes}")
+    if not 0.1 <= waist <= 0.9:
+        raise MorphogenError(f"waist must be in [0.1, 0.9] (fraction of the length), got {waist}")
+    if not (belly > radius and belly > mouth):
+        raise MorphogenError(f"belly ({belly}) must be wider than radius ({radius}) and mouth "
+                             f"({mouth}) for an urn")
+    if not 0 < flare <= 150:
+        raise MorphogenError(f"flare must be in (0, 150] degrees, got {flare}")
+    zb = waist * length
+    zz = np.linspace(0.0, length, 3000)
+    body = np.where(zz < zb, radius + (belly - radius) * np.sin(0.5 * np.pi * zz / zb),
+                    mouth + (belly - mouth) * np.cos(0.5 * np.pi * (zz - zb) / (length - zb)))
+    seg = np.hypot(np.diff(body), np.diff(zz))
+    s_body = np.concatenate([[0.0], np.cumsum(seg)])
+    start = np.arctan2(body[-1] - body[-2], zz[-1] - zz[-2])  # the neck's angle from the axis
+    t = np.linspace(0.0, lobe_length * 1.05, 1000)[1:]
+    turn = np.clip(t / (0.5 * lobe_length), 0.0, 1.0)
+    angle = start + (np.radians(flare) - start) * (3 * turn**2 - 2 * turn**3)
+    dt = t[1] - t[0]
+    rho = np.concatenate([body, body[-1] + np.cumsum(np.sin(angle)) * dt])
+    z = np.concatenate([zz, length + np.cumsum(np.cos(angle)) * dt])
+    s = np.concatenate([s_body, s_body[-1] + t])
+    if rho.min() <= 0:
+        raise MorphogenError("urn: the lobes turn back through the axis; lower flare or "
+                             "lobe_length")
+    # the lobes are fused over their first 30 % (no sinus down to the mouth itself)
+    return _revolve(s, rho, z, s_body[-1], s_body[-1] + 0.3 * lobe_length, 0.7 * lobe_length,
+                    lobes=lobes, notch=notch, lobe_scales=None, edge=edge, name=f"urn-{lobes}")
