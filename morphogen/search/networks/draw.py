@@ -75,17 +75,23 @@ def draw_network(net: ReactionNetwork, fmt: str = "png",
     fig = Figure(figsize=(6.4, 6.4), dpi=120)
     ax = fig.add_subplot()
     colours = {s: f"C{i}" for i, s in enumerate(net.species)}
-    nx.draw_networkx_nodes(g, pos, nodelist=species, node_size=SPECIES_SIZE, ax=ax,
-                           node_color=[colours[v[1]] for v in species], alpha=0.85)
-    nx.draw_networkx_nodes(g, pos, nodelist=rxns, node_size=REACTION_SIZE, node_color="black",
-                           ax=ax)
-    nx.draw_networkx_labels(g, pos, labels={v: g.nodes[v]["label"] for v in species}, ax=ax,
-                            font_size=15, font_weight="bold", font_color="white")
-    offset = {v: (x, y - 0.08) for v, (x, y) in pos.items()}
-    nx.draw_networkx_labels(g, offset, labels={v: g.nodes[v]["label"] for v in rxns}, ax=ax,
-                            font_size=8, font_color="0.2",
-                            bbox={"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none",
-                                  "alpha": 0.8})
+    discs = nx.draw_networkx_nodes(g, pos, nodelist=species, node_size=SPECIES_SIZE, ax=ax,
+                                   node_color=[colours[v[1]] for v in species])
+    dots = nx.draw_networkx_nodes(g, pos, nodelist=rxns, node_size=REACTION_SIZE,
+                                  node_color="black", ax=ax)
+    for collection in (discs, dots):
+        collection.set_zorder(3)  # above the edges
+    names = nx.draw_networkx_labels(g, pos, labels={v: g.nodes[v]["label"] for v in species},
+                                    ax=ax, font_size=15, font_weight="bold", font_color="white")
+    for text in names.values():
+        text.set_zorder(4)
+    offset = _outward(pos, rxns, 0.11)
+    rates = nx.draw_networkx_labels(g, offset, labels={v: g.nodes[v]["label"] for v in rxns},
+                                    ax=ax, font_size=8, font_color="0.2",
+                                    bbox={"boxstyle": "round,pad=0.1", "fc": "white",
+                                          "ec": "none", "alpha": 0.8})
+    for text in rates.values():
+        text.set_zorder(0.5)  # below the edges, so arrowheads stay visible
     styles = {"educt": ("solid", "-"), "product": ("solid", "-|>"), "catalyst": ("dotted", "-|>")}
     for kind, (style, arrow) in styles.items():
         edges = [(a, b) for a, b, k in g.edges(data="kind") if k == kind]
@@ -111,3 +117,14 @@ def draw_network(net: ReactionNetwork, fmt: str = "png",
     metadata = {"Date": None} if fmt == "svg" else None
     fig.savefig(buf, format=fmt, bbox_inches="tight", metadata=metadata)
     return buf.getvalue()
+
+
+def _outward(pos: dict, nodes: list, distance: float) -> dict:
+    """Label positions ``distance`` from each node, away from the drawing's centre."""
+    centre = np.mean(np.array(list(pos.values())), axis=0)
+    out = {}
+    for v in nodes:
+        d = np.asarray(pos[v]) - centre
+        norm = np.linalg.norm(d)
+        out[v] = tuple(pos[v] + (d / norm if norm > 1e-9 else np.array([0.0, -1.0])) * distance)
+    return out
