@@ -52,3 +52,21 @@ def test_ray_batches_equal_the_local_evaluation_and_run(local_ray, tmp_path):
         evolve(run_id, archive, executor, log=lambda s: None)
         results.append([(r["genome"], r["fitness"]) for r in archive.individuals(run_id)])
     assert results[0] == results[1] and len(results[0]) == 14
+
+
+def test_map_elites_on_ray_equals_the_local_run(local_ray, tmp_path):
+    results = []
+    for name, executor in (("local", LocalExecutor(PROBLEM)),
+                           ("ray", RayExecutor(PROBLEM, batches=2))):
+        archive = Archive(tmp_path / f"{name}.sqlite")
+        run_id, directory = start(PROBLEM, {"name": "map-elites", "population": 6},
+                                  generations=2, seed=4, out=tmp_path / name, archive=archive)
+        evolve(run_id, archive, executor, log=lambda s: None)
+        state = archive.last_state(run_id)[1]
+        assert (directory / "elites.png").is_file() and (directory / "qd.png").is_file()
+        results.append(([(r["genome"], r["fitness"]) for r in archive.individuals(run_id)],
+                        state))
+    (local, local_state), (remote, remote_state) = results
+    assert local == remote and len(local) == 12
+    for k, v in local_state.items():
+        np.testing.assert_array_equal(v, remote_state[k])

@@ -36,9 +36,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--boundary", action="append", metavar="SPEC",
                    help="periodic | neumann | dirichlet=VALUE, or SPECIES=SPEC (repeatable)")
     p.add_argument("--stencil", type=int, choices=(5, 7, 9), help="Laplacian stencil points")
-    p.add_argument("--scheme", choices=("euler", "rk4", "imex1", "imex", "etdrk4"), default=None,
-                   help="time stepper (imex, imex1, etdrk4: stiff diffusion on grids, see "
+    p.add_argument("--scheme", choices=("euler", "rk4", "imex1", "imex", "etdrk4", "adaptive",
+                                        "auto"), default=None,
+                   help="time stepper (imex, imex1, etdrk4: stiff diffusion on grids; adaptive: "
+                   "error-controlled steps; auto: imex when stiff, else euler; see "
                    "docs/schemes.md)")
+    p.add_argument("--rtol", type=options.positive_float, default=None,
+                   help="relative error tolerance of --scheme adaptive (default 1e-3)")
+    p.add_argument("--atol", type=options.positive_float, default=None,
+                   help="absolute error tolerance of --scheme adaptive (default 1e-6)")
     p.add_argument("--init", metavar="KIND|FILE",
                    help="uniform, noise, square, blobs, skaggs, seeds, random "
                    "(U[low, high], --init-opt high=2), or a .npz/image file")
@@ -89,6 +95,8 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
         "boundary": options.boundary(args.boundary) if args.boundary else None,
         "stencil": args.stencil,
         "scheme": args.scheme,
+        "rtol": args.rtol,
+        "atol": args.atol,
         "init": args.init,
         "init_options": options.assignments(args.init_opt, "--init-opt") or None,
         "seed": args.seed,
@@ -125,5 +133,7 @@ def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     out = Path(args.out or Path("out") / Path(config.model).stem)
     solution = execute(config, out, progress=options.show_progress(args))
-    print(f"wrote {out}/ ({solution.steps} steps, t={solution.t:g}, {solution.wall_time:.1f} s)")
+    rejected = "" if solution.rejected_steps is None else f", {solution.rejected_steps} rejected"
+    print(f"wrote {out}/ ({solution.steps} steps{rejected}, t={solution.t:g}, "
+          f"{solution.wall_time:.1f} s)")
     return 0

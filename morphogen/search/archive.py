@@ -222,6 +222,13 @@ class Archive:
             row = db.execute(query, (run_id,)).fetchone()
         return None if row is None else (int(row["gen"]), _unpack(row["state"]))
 
+    def states(self, run_id: str) -> list[tuple[int, dict[str, np.ndarray]]]:
+        """``(gen, strategy state arrays)`` of every recorded generation, in order."""
+        query = "SELECT gen, state FROM generations WHERE run_id=? ORDER BY gen"
+        with self._db() as db:
+            rows = db.execute(query, (run_id,)).fetchall()
+        return [(int(row["gen"]), _unpack(row["state"])) for row in rows]
+
     def individuals(self, run_id: str, gen: int | None = None) -> list[dict[str, Any]]:
         """Individuals of a run (or of one generation), with genomes decoded."""
         query = "SELECT * FROM individuals WHERE run_id=?"

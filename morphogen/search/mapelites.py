@@ -196,7 +196,11 @@ def coverage(state: State) -> float:
     return float(np.mean(np.isfinite(np.asarray(state.inner.fitness))))
 
 
-def qd_score(state: State) -> float:
-    """Sum of the elites' fitness (empty cells count 0)."""
+def qd_score(state: State, offset: float = 0.0) -> float:
+    """``Σ_c (f_c − offset)`` over the filled cells (empty cells count 0).
+
+    With ``offset`` at or below the lowest fitness a genome can get (the staged fitness of
+    :mod:`morphogen.search.fitness` is never below ``INVALID = −1``), every elite adds a
+    non-negative amount and the score never decreases."""
     f = np.asarray(state.inner.fitness)
-    return float(np.sum(f[np.isfinite(f)]))
+    return float(np.sum(f[np.isfinite(f)] - offset))

@@ -25,7 +25,7 @@ import numpy as np
 from morphogen.errors import MorphogenError
 from morphogen.io import ensure_writable_dir, write_json
 from morphogen.progress import ProgressBar
-from morphogen.search import report
+from morphogen.search import qd_report, report
 from morphogen.search.archive import CONFIG, Archive, Generation, new_run_id
 from morphogen.search.cmaes import CMAES
 from morphogen.search.evaluate import Problem
@@ -187,13 +187,29 @@ def evolve(
         ))
         report.write_fitness_plot(directory, archive.generations(run_id), label)
         report.write_best(directory, problem, archive.best(run_id, BEST_KEPT), run_id)
+        if isinstance(strategy, MapElites):
+            _write_qd(directory, problem, strategy, state, archive, run_id, label)
         remaining = computing / (gen - first + 1) * (total - gen)
         log(_summary(gen, total, fitness, metrics["valid"], float(m["best_fitness"]), seconds,
                      remaining))
+    if isinstance(strategy, MapElites):
+        families = qd_report.write_elite_map(directory, strategy, state, executor.evaluate,
+                                             jax.random.fold_in(master, 3),
+                                             config.get("cmap", "viridis"))
+        qd_report.write_elites(directory, problem, strategy, state, archive, run_id, families)
     archive.set_status(run_id, "done")
     best = archive.best(run_id, 1)[0]
     return RunResult(run_id, directory, np.asarray(best["genome"]), float(best["fitness"]),
                      total)
+
+
+def _write_qd(directory: Path, problem: Problem, strategy: MapElites, state: Any,
+              archive: Archive, run_id: str, label: str) -> None:
+    """The MAP-Elites files of a generation: the elites' run files and ``qd.png``."""
+    qd_report.write_elites(directory, problem, strategy, state, archive, run_id)
+    template = strategy.init(jax.random.PRNGKey(0), problem.genes)
+    history = qd_report.qd_history(strategy, template, archive, run_id)
+    qd_report.write_qd_plot(directory, history, strategy.cell_count, label)
 
 
 def resolve_run(ref: str, archive_path: str | None = None) -> tuple[str, Archive]:
