@@ -77,7 +77,7 @@ _KEYS = {
               "tip_radius", "seed", "show", "cmap"},
     "simulate": {"model", "preset", "steps", "time", "dt", "seed", "init", "init_options",
                  "params", "initial", "boundary", "directions", "omega", "outputs", "show",
-                 "cmap", "unsafe"},
+                 "cmap", "unsafe", "scheme", "rtol", "atol"},
 }
 _COMMON = {"kind", "name", "view"}
 
@@ -337,7 +337,9 @@ def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
     else:
         steps = int(round(float(stage.get("time", model.t_end)) / dt))
     sol = simulate(model, domain, u0, params, steps=steps, dt=dt, seed=seed, progress=progress,
-                   unsafe=bool(stage.get("unsafe", False)))
+                   unsafe=bool(stage.get("unsafe", False)),
+                   scheme=str(stage.get("scheme", "euler")), rtol=stage.get("rtol"),
+                   atol=stage.get("atol"))
     write_npz(stage_dir / "state.npz", {s: sol.state[i] for i, s in enumerate(model.species)})
     show = stage.get("show", model.display_species)
     write_mesh_outputs(stage_dir, domain, model, sol.state,

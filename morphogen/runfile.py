@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from morphogen import guard
+from morphogen.autoscheme import choose_scheme
 from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
 from morphogen.fields import resolve_params
@@ -56,6 +57,8 @@ class RunConfig:
     steps: int | None = None
     time: float | None = None
     scheme: str = "euler"
+    rtol: float | None = None
+    atol: float | None = None
     seed: int = 0
     init: str | None = None
     init_options: dict[str, Any] = field(default_factory=dict)
@@ -218,7 +221,12 @@ def set_precision(precision: str) -> None:
 
 def _default_dt(model: Model, domain: Any, params: dict, config: RunConfig) -> float:
     """The model's suggested dt, reduced to 90 % of the stability limit where the domain
-    (a 3D grid, a fine mesh, a larger diffusion) needs it."""
+    (a 3D grid, a fine mesh, a larger diffusion) needs it; with ``auto`` choosing a stiff
+    scheme, that scheme's (reaction-limited) limit."""
+    if config.scheme == "auto":
+        scheme = choose_scheme(model, domain, params)
+        if scheme != "euler":
+            return max_stable_dt(model, domain, params, scheme)
     limit = max_stable_dt(model, domain, params, config.scheme)
     return float(min(model.dt, 0.9 * limit))
 
@@ -231,7 +239,7 @@ def run_prepared(prep: Prepared, *, progress: bool = False) -> Solution:
     solution = simulate(
         prep.model, prep.domain, prep.u0, prep.params, steps=prep.steps, dt=prep.dt,
         scheme=c.scheme, noise=noise, clamp=clamp, seed=c.seed, every=c.every,
-        progress=progress, unsafe=c.unsafe,
+        progress=progress, unsafe=c.unsafe, rtol=c.rtol, atol=c.atol,
     )
     if c.clamp == "model" and prep.model.clamp is not None:
         check_ceiling(prep.model, np.asarray(solution.state), prep.model.clamp[1])
@@ -286,6 +294,8 @@ def run_record(prep: Prepared, solution: Solution, wall: float) -> dict[str, Any
             "steps": prep.steps,
             "t_end": solution.t,
             "clamp": prep.model.clamp if prep.config.clamp == "model" else prep.config.clamp,
+            "scheme": solution.scheme,
+            **_adaptive_record(solution),
         },
         "provenance": {
             "morphogen": _version("morphogen"),
@@ -296,6 +306,13 @@ def run_record(prep: Prepared, solution: Solution, wall: float) -> dict[str, Any
             "wall_time_s": round(wall, 3),
         },
     }
+
+
+def _adaptive_record(solution: Solution) -> dict[str, Any]:
+    """Accepted and rejected steps of an ``adaptive`` run (nothing for fixed steps)."""
+    if solution.rejected_steps is None:
+        return {}
+    return {"accepted_steps": solution.steps, "rejected_steps": solution.rejected_steps}
 
 
 def _describe(value: np.ndarray) -> Any:

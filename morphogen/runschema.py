@@ -51,7 +51,9 @@ class RunSchema(BaseModel):
     dt: Positive | None = None
     steps: Count | None = None
     time: Positive | None = None
-    scheme: Literal["euler", "rk4", "imex1", "imex", "etdrk4"] = "euler"
+    scheme: Literal["euler", "rk4", "imex1", "imex", "etdrk4", "adaptive", "auto"] = "euler"
+    rtol: Positive | None = None
+    atol: Positive | None = None
     seed: Annotated[int, Field(ge=0, le=SEED_MAX)] = 0
     init: StrictStr | None = None
     init_options: dict[StrictStr, Value] = {}

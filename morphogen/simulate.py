@@ -21,6 +21,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from morphogen.autoscheme import choose_scheme
 from morphogen.errors import BlowUpError, DivergenceError, MorphogenError
 from morphogen.models.model import Array, Model, Params
 from morphogen.progress import ProgressBar
@@ -88,6 +89,10 @@ class Solution:
         blowup_step: for a batch, the end of the chunk in which a member first blew up (0 if
             never), shape ``(B,)``.
         wall_time: seconds spent, compile time included.
+        scheme: the scheme that ran (``auto`` resolved).
+        rejected_steps: steps the error controller rejected (``adaptive`` only; ``steps`` then
+            counts the accepted ones).
+        snapshot_times: the time of each snapshot.
     """
 
     state: np.ndarray
@@ -98,6 +103,9 @@ class Solution:
     valid: np.ndarray | None = None
     blowup_step: np.ndarray | None = None
     wall_time: float = 0.0
+    scheme: str = ""
+    rejected_steps: int | None = None
+    snapshot_times: list[float] = field(default_factory=list)
 
 
 def simulate(
@@ -116,6 +124,8 @@ def simulate(
     max_snapshots: int = 240,
     progress: bool = False,
     unsafe: bool = False,
+    rtol: float | None = None,
+    atol: float | None = None,
 ) -> Solution:
     """Simulate one state ``u0`` (shape ``(S, *spatial)``) for ``steps`` steps of ``dt``.
 
@@ -127,6 +137,10 @@ def simulate(
             bounded by ``max_snapshots`` (older snapshots are thinned to every other one).
         unsafe: skip the stability check and the early divergence detection (NaN, Inf and
             overflow are still reported).
+        scheme: a fixed-step scheme (:data:`morphogen.steppers.SCHEMES`), ``auto``
+            (:func:`morphogen.autoscheme.choose_scheme`) or ``adaptive``
+            (:mod:`morphogen.adaptive`: error control by ``rtol``/``atol``, ``dt`` is the first
+            step and ``steps * dt`` the end time).
 
     Raises:
         UnstableTimeStepError: ``dt`` above the stability limit (unless ``unsafe``).
@@ -137,7 +151,7 @@ def simulate(
     return _drive(
         model, domain, u0, params, batched=False, steps=steps, dt=dt, scheme=scheme,
         noise=noise, clamp=clamp, seed=seed, every=every, max_snapshots=max_snapshots,
-        progress=progress, unsafe=unsafe,
+        progress=progress, unsafe=unsafe, rtol=rtol, atol=atol,
     )
 
 
@@ -174,7 +188,7 @@ def simulate_batch(
 
 def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, scheme: str,
            noise, clamp, seed: int, every, max_snapshots: int, progress: bool,
-           unsafe: bool) -> Solution:
+           unsafe: bool, rtol: float | None = None, atol: float | None = None) -> Solution:
     start = time.perf_counter()
     if steps < 0:
         raise MorphogenError(f"steps must be >= 0, got {steps}")
@@ -189,10 +203,17 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
     if got != expected:
         raise MorphogenError(f"initial state has shape {got}, expected {expected}")
     p = {k: jnp.asarray(v, dtype) for k, v in params.items()}
-    if not unsafe:
-        check_stability(model, domain, p, dt, scheme, batched=batched)
+    if scheme == "auto":
+        scheme = choose_scheme(model, domain, p, batched=batched)
     if isinstance(clamp, str):
         clamp = model.clamp
+    if scheme == "adaptive" or rtol is not None or atol is not None:
+        return _adaptive(model, domain, u, p, batched=batched, steps=steps, dt=dt,
+                         scheme=scheme, noise=noise, clamp=clamp, every=every,
+                         max_snapshots=max_snapshots, progress=progress, unsafe=unsafe,
+                         rtol=rtol, atol=atol, start=start)
+    if not unsafe:
+        check_stability(model, domain, p, dt, scheme, batched=batched)
     step = _cached_step(model, domain, scheme, noise, tuple(clamp) if clamp else None)
     run = _compiled(step, batched)
     key = jax.random.PRNGKey(seed)
@@ -242,7 +263,30 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
         valid=(first_bad == 0) if batched else None,
         blowup_step=first_bad if batched else None,
         wall_time=time.perf_counter() - start,
+        scheme=scheme,
+        snapshot_times=[k * dt for k in snap_steps],
     )
+
+
+def _adaptive(model, domain, u, p, *, batched: bool, steps: int, dt: float, scheme: str,
+              rtol, atol, start: float, clamp, **options) -> Solution:
+    """``scheme="adaptive"``: error-controlled steps (:mod:`morphogen.adaptive`)."""
+    if scheme != "adaptive":
+        raise MorphogenError(f"--rtol/--atol control --scheme adaptive, not {scheme}; drop "
+                             "them or use --scheme adaptive")
+    if batched:
+        raise MorphogenError("scheme adaptive runs one state at a time (simulate); use euler, "
+                             "rk4, imex or etdrk4 for a batch")
+    from morphogen.adaptive import DEFAULT_ATOL, DEFAULT_RTOL, simulate_adaptive
+
+    run = simulate_adaptive(
+        model, domain, u, p, steps=steps, dt=dt, clamp=tuple(clamp) if clamp else None,
+        rtol=DEFAULT_RTOL if rtol is None else rtol, atol=DEFAULT_ATOL if atol is None else atol,
+        **options)
+    return Solution(state=run.state, t=run.t, steps=run.accepted, snapshots=run.snapshots,
+                    snapshot_steps=run.snapshot_steps, wall_time=time.perf_counter() - start,
+                    scheme="adaptive", rejected_steps=run.rejected,
+                    snapshot_times=run.snapshot_times)
 
 
 def _bad_species(u: Array, batched: bool) -> Array:

@@ -34,6 +34,9 @@ from morphogen.stability import linear_limit
 
 EXPLICIT_SCHEMES = ("euler", "rk4")
 SCHEMES = EXPLICIT_SCHEMES + IMEX_SCHEMES + ("etdrk4",)
+RUN_SCHEMES = ("adaptive", "auto")
+"""Schemes resolved per run by :func:`morphogen.simulate.simulate`: error-controlled steps
+(:mod:`morphogen.adaptive`) and the automatic choice (:mod:`morphogen.autoscheme`)."""
 
 
 @dataclass(frozen=True)
@@ -81,6 +84,9 @@ def make_step(
     true, e.g. a mesh with Ringham's ``omega``) adds ``domain.diffusion_noise(u, D, bcs, dt,
     key)``, evaluated at the step's starting state, after the deterministic update.
     """
+    if scheme in RUN_SCHEMES:
+        raise MorphogenError(f"scheme {scheme} is chosen per run, not per step; pass it to "
+                             f"simulate, or use one of {', '.join(SCHEMES)} here")
     if scheme not in SCHEMES:
         raise MorphogenError(f"unknown scheme {scheme!r}; use one of {', '.join(SCHEMES)}")
     if scheme in IMEX_SCHEMES:
@@ -150,7 +156,10 @@ def max_stable_dt(
     :data:`morphogen.stability.SAFETY` below the marginal value (see
     :mod:`morphogen.stability`). With ``batched`` every parameter has a leading batch axis and
     the bound is over all members. Anisotropic tensors use their largest eigenvalue.
+    ``adaptive`` has no limit (its controller picks the steps): ``inf``.
     """
+    if scheme == "adaptive":
+        return float("inf")
     return linear_limit(model, domain, params, scheme, batched=batched)
 
 
