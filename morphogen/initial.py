@@ -8,8 +8,9 @@ perturbs, moves towards the model's excited values ``e``. Kinds (:data:`INITIAL_
 - ``square``: ``e`` inside a centred square of side ``size`` (fraction of each axis), ``g``
   outside (Richard et al. §IV.4.2 and §5.2.1).
 - ``blobs``: ``count`` Gaussian blobs of width ``radius`` (a fraction of the domain, at least
-  2.5 cells) at random places, blending ``g`` to ``e`` (Richard et al. §III.2.1; Mordvintsev
-  et al.'s seed states).
+  2.5 cells) or ``sigma`` (cells), or one blob per ``spacing^d`` cells, at random places,
+  blending ``g`` to ``e`` (Richard et al. §III.2.1; Mordvintsev et al.'s seed states); on
+  meshes a cell is the mean edge length and blobs are spread by area over the surface.
 - ``skaggs``: Skaggs eqs. 3.3-3.4 on the unit square centred at the origin (two species):
   ``u0 = 1 - exp(-80((x+0.05)^2 + (y+0.05)^2))``, ``v0 = exp(-80((x-0.05)^2 + (y-0.05)^2))``.
 - ``seeds``: ``count`` random cells (or mesh vertices) where ``species`` takes
@@ -35,6 +36,8 @@ from morphogen.errors import MorphogenError
 from morphogen.models.model import Model, Params
 
 Init = Callable[..., np.ndarray]
+MAX_BLOB_WORK = 5e8
+"""Largest ``blobs x cells`` a ``blobs`` start may cost (a few seconds of NumPy)."""
 INITIAL_KINDS: dict[str, Init] = {}
 """Initial-condition builders by name: ``f(model, domain, g, e, rng, **opts) -> state``."""
 
@@ -67,6 +70,8 @@ def make_initial(
                 f"unknown initial condition {kind!r}; use one of {', '.join(INITIAL_KINDS)} "
                 "or a .npz / image file"
             )
+    if kind == model.init:
+        opts = _with_model_options(model.init_options, opts)
     g = model.ground_state(params)
     e = model.excited_state(params)
     rng = np.random.default_rng(seed)
@@ -77,6 +82,20 @@ def make_initial(
     except (TypeError, ValueError, OverflowError) as exc:
         raise MorphogenError(f"bad option for initial condition {kind!r}: {exc}") from None
     return np.ascontiguousarray(state, dtype=np.float32)
+
+
+_ALTERNATIVES = ({"count", "spacing"}, {"radius", "sigma"})
+"""Options that say the same thing two ways: a run's choice of one drops the model's other."""
+
+
+def _with_model_options(defaults: Any, opts: dict[str, Any]) -> dict[str, Any]:
+    """The model's suggested options under the run's own."""
+    merged = dict(defaults)
+    for group in _ALTERNATIVES:
+        if group & opts.keys():
+            for key in group:
+                merged.pop(key, None)
+    return {**merged, **opts}
 
 
 def _fill(model: Model, domain: Any, values: np.ndarray) -> np.ndarray:
@@ -120,15 +139,77 @@ def _square(model, domain, g, e, rng, size: float = 0.1, amplitude: float = 0.0)
 
 
 @_kind("blobs")
-def _blobs(model, domain, g, e, rng, count: int = 12, radius: float = 0.025):
-    pos = _positions(domain)[: max(1, min(3, len(domain.spatial_shape)))]
-    radius = max(radius, 2.5 / min(domain.spatial_shape))
-    weight = np.zeros(domain.spatial_shape)
-    for _ in range(int(count)):
+def _blobs(model, domain, g, e, rng, count: int | None = None, radius: float | None = None,
+           spacing: float | None = None, sigma: float | None = None):
+    """Gaussian blobs ``max_b exp(-|x - c_b|^2 / (2 s^2))`` blending ``g`` to ``e``.
+
+    On grids lengths are in cells: ``sigma`` (default ``radius · N`` with ``radius = 0.025`` a
+    fraction of the smaller side ``N``, at least 2.5 cells), centres uniform, distances periodic.
+    On meshes the unit is the mean edge length ``h``: ``sigma`` in edge lengths (default
+    ``radius · sqrt(A)``, ``A`` the surface area), centres at vertices drawn by area (uniform over
+    the surface), straight-line distances. ``count`` defaults to 12, or with ``spacing`` to one
+    blob per ``spacing^d`` cells (per ``(spacing h)^2`` of mesh area): Mordvintsev et al.'s
+    sparse seed states (seed 002, fig. 1) are ``spacing = 16``, ``sigma = 2``.
+    """
+    if count is not None and spacing is not None:
+        raise MorphogenError("give the blobs a count or a spacing, not both")
+    if radius is not None and sigma is not None:
+        raise MorphogenError("give the blobs a radius or a sigma, not both")
+    if spacing is not None and not (np.isfinite(spacing) and spacing > 0):
+        raise MorphogenError(f"blob spacing must be a positive number of cells, got {spacing}")
+    if sigma is not None and not (np.isfinite(sigma) and sigma > 0):
+        raise MorphogenError(f"blob sigma must be a positive number of cells, got {sigma}")
+    on_mesh = hasattr(domain, "areas")
+    n_cells = int(np.prod(domain.spatial_shape))
+    count = 12 if count is None and spacing is None else count
+    if spacing is not None:
+        count = max(1, round(blob_capacity(domain) / float(spacing) ** (2 if on_mesh else
+                                                                       len(domain.spatial_shape))))
+    count = int(count)
+    if not 0 < count <= n_cells:
+        raise MorphogenError(f"blob count must be between 1 and the {n_cells} cells, got {count}")
+    if count * n_cells > MAX_BLOB_WORK:
+        raise MorphogenError(f"{count} blobs on {n_cells} cells is too much work for a start "
+                             "state; use fewer blobs (a larger spacing)")
+    if on_mesh:
+        return _blend(g, e, _mesh_blobs(domain, rng, count, radius, sigma))
+    shape = domain.spatial_shape
+    pos = _positions(domain)[: max(1, min(3, len(shape)))]
+    side = min(shape)
+    s = float(sigma) if sigma is not None else max(0.025 if radius is None else float(radius),
+                                                   2.5 / side) * side
+    lengths = shape[::-1][: len(pos)]  # x runs along the last axis
+    weight = np.zeros(shape)
+    for _ in range(count):
         centre = rng.uniform(0.0, 1.0, len(pos))
-        r2 = sum(_wrap(p - c) ** 2 for p, c in zip(pos, centre, strict=True))
-        weight = np.maximum(weight, np.exp(-r2 / (2 * radius**2)))
+        r2 = sum((_wrap(p - c) * n) ** 2 for p, c, n in zip(pos, centre, lengths, strict=True))
+        weight = np.maximum(weight, np.exp(-r2 / (2 * s**2)))
     return _blend(g, e, weight)
+
+
+def blob_capacity(domain: Any) -> float:
+    """The domain's size in cells for blob densities: cells on a grid, ``A / h^2`` on a mesh
+    (surface area over the squared mean edge length)."""
+    if hasattr(domain, "areas"):
+        return float(np.sum(domain.areas)) / domain.edge_length**2
+    return float(np.prod(domain.spatial_shape))
+
+
+def _mesh_blobs(mesh: Any, rng: np.random.Generator, count: int, radius: float | None,
+                sigma: float | None) -> np.ndarray:
+    areas = np.asarray(mesh.areas, np.float64)
+    if sigma is not None:
+        s = float(sigma) * mesh.edge_length
+    else:
+        s = max(0.025 if radius is None else float(radius), 0.0) * math.sqrt(areas.sum())
+        s = max(s, 2.5 * mesh.edge_length)
+    centres = rng.choice(len(areas), size=count, p=areas / areas.sum())
+    v = np.asarray(mesh.vertices, np.float64)
+    weight = np.zeros(len(v))
+    for c in centres:
+        r2 = np.sum((v - v[c]) ** 2, axis=1)
+        weight = np.maximum(weight, np.exp(-r2 / (2 * s**2)))
+    return weight
 
 
 def _wrap(d: np.ndarray) -> np.ndarray:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import imageio.v3 as iio
 import numpy as np
 import pytest
@@ -83,3 +85,60 @@ def test_random_is_uniform_on_every_domain(domain):
     np.testing.assert_allclose(b, -2.0 + 4.0 * a, rtol=1e-6, atol=1e-6)
     with pytest.raises(MorphogenError, match="low < high"):
         make_initial("random", GS, domain, P, low=1.0, high=1.0)
+
+
+def _blob_weight(state: np.ndarray) -> np.ndarray:
+    """Gray-Scott's v: the blend weight w of ``g + w (e - g)`` (g = 0, e = 0.25)."""
+    return state[1] / 0.25
+
+
+def test_blob_sigma_is_in_cells_and_round_on_any_grid():
+    """One blob of sigma 2 cells on a 40 x 50 torus: its mass is 2 pi sigma^2 and its spread is
+    the same along both axes (sigma in cells, not a fraction of each side)."""
+    w = _blob_weight(make_initial("blobs", GS, GRID, P, count=1, sigma=2.0, seed=4))
+    assert w.sum() == pytest.approx(2 * np.pi * 4.0, rel=1e-3)
+    i, j = np.unravel_index(np.argmax(w), w.shape)
+    w = np.roll(w, (20 - i, 25 - j), axis=(0, 1))  # the blob away from the seams
+    for axis, n in ((0, 40), (1, 50)):
+        profile = w.sum(axis=1 - axis)
+        x = np.arange(n)
+        mean = (x * profile).sum() / profile.sum()
+        assert ((x - mean) ** 2 * profile).sum() / profile.sum() == pytest.approx(4.0, rel=1e-2)
+
+
+def _peaks(w: np.ndarray) -> int:
+    """Local maxima above 0.9 on the torus (a blob's top is >= exp(-1/16) at sigma 2)."""
+    around = np.max([np.roll(w, (a, b), axis=(0, 1)) for a in (-1, 0, 1) for b in (-1, 0, 1)],
+                    axis=0)
+    return int(((w > 0.9) & (w == around)).sum())
+
+
+def test_blob_spacing_sets_the_density_and_a_run_option_replaces_the_model_default():
+    u = make_initial("blobs", GS, Grid((64, 64)), P, spacing=16, sigma=2.0, seed=0)
+    assert 13 <= _peaks(_blob_weight(u)) <= 16  # 64^2 / 16^2 = 16 centres; a few may merge
+    with pytest.raises(MorphogenError, match="count or a spacing"):
+        make_initial("blobs", GS, GRID, P, count=3, spacing=16)
+    neural = replace(GS, init="blobs", init_options={"spacing": 16, "sigma": 2.0})
+    np.testing.assert_array_equal(make_initial("blobs", neural, Grid((64, 64)), P, seed=0), u)
+    one = make_initial("blobs", neural, Grid((64, 64)), P, count=1, seed=0)  # no conflict
+    assert _peaks(_blob_weight(one)) == 1
+
+
+def test_blobs_on_a_closed_mesh_are_sparse_gaussians_on_the_surface():
+    """On a unit icosphere a blob of sigma = 2 mean edge lengths has surface mass
+    2 pi sigma^2 (1 - exp(-2 / sigma^2)) (chord distance); the neural default (one per
+    (16 h)^2 of area) seeds a small share of the vertices, not all of them."""
+    import trimesh
+
+    from morphogen.domains.mesh import Mesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=4)
+    mesh = Mesh(sphere.vertices, sphere.faces)
+    w = _blob_weight(make_initial("blobs", GS, mesh, P, count=1, sigma=2.0, seed=1))
+    s = 2.0 * mesh.edge_length
+    assert float(np.sum(w * mesh.areas)) == pytest.approx(
+        2 * np.pi * s**2 * (1 - np.exp(-2 / s**2)), rel=0.03)
+    sparse = _blob_weight(make_initial("blobs", GS, mesh, P, spacing=16, sigma=2.0, seed=1))
+    expected = round(float(mesh.areas.sum()) / (16 * mesh.edge_length) ** 2)
+    assert 0.0 < (sparse > 0.5).mean() < 3 * expected * np.pi * (1.18 * s) ** 2 / (4 * np.pi)
+    assert 1 <= expected <= 20

@@ -49,7 +49,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="uniform, noise, square, blobs, skaggs, seeds, random "
                    "(U[low, high], --init-opt high=2), or a .npz/image file")
     p.add_argument("--init-opt", action="append", metavar="NAME=VALUE",
-                   help="option of the initial condition, e.g. count=20 (repeatable)")
+                   help="option of the initial condition, e.g. count=20, or for blobs "
+                   "spacing=16 sigma=2 (cells per blob, width in cells) (repeatable)")
     p.add_argument("--seed", type=options.seed, default=None, help="random seed")
     p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE",
                    help="parameter: a number, an expression of x, y, z, or a .npy field "

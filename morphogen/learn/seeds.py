@@ -14,15 +14,16 @@ import jax
 import jax.numpy as jnp
 
 from morphogen.models.model import Array
+from morphogen.models.neural import SEED_SIGMA, SEED_SPACING
 
-BLOB_SPACING = 16.0
+BLOB_SPACING = SEED_SPACING
 """One blob per ``16^d`` cells on average (16 blobs on a 64 x 64 grid, 64 on 128 x 128).
 
 Sparser seeds (one per ``32^2`` cells) teach a rule to spread the pattern from a few centres as
 outgoing waves, which leaves concentric rings: trained 600 iterations on the synthetic dots,
 the cpu preset's loss was 0.28 with them and 0.08 with these, which grow separate dots."""
 
-BLOB_SIGMA = 2.0
+BLOB_SIGMA = SEED_SIGMA
 """Standard deviation of a blob, in cells."""
 
 

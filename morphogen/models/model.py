@@ -65,6 +65,8 @@ class Model:
         dt: suggested time step (stable on a unit grid with the default parameters).
         t_end: suggested simulated time for the default parameters to form their pattern.
         init: suggested initial condition kind (see :mod:`morphogen.initial`).
+        init_options: options of that kind used unless the run gives its own (e.g. the blob
+            density of a neural model's seed states).
         clamp: physical bounds the model itself declares (e.g. non-negative concentrations
             in Turk's formulation of Turing's model); used unless the caller overrides it.
         colours: the model's own picture of a state, ``state (S, *spatial) -> float RGB
@@ -88,6 +90,7 @@ class Model:
     dt: float = 1.0
     t_end: float = 1000.0
     init: str = "noise"
+    init_options: Mapping[str, Any] = field(default_factory=dict)
     clamp: tuple[float, float] | None = None
     colours: Callable[[np.ndarray], np.ndarray] | None = None
 

@@ -58,6 +58,12 @@ Laplacian (as is ``[[1, 2, 1], [2, -12, 2], [1, 2, 1]] / 16``, which approximate
 it), so the fastest channel (``c = 1``) is stable at ``r = d = dt = 1``: the 9-point stencil's
 spectral radius is ``16/3``, times ``1/4`` gives ``4/3 < 2``."""
 
+SEED_SPACING = 16.0
+"""Seed states have one Gaussian blob per ``16^d`` cells (per ``(16 h)^2`` of mesh area)."""
+SEED_SIGMA = 2.0
+"""Standard deviation of a seed blob, in cells (mesh edge lengths). The training pool's seeds
+(:mod:`morphogen.learn.seeds`) use the same two numbers, so a run starts as training did."""
+
 FORMAT = "morphogen-neural-rd"
 FORMAT_VERSION = 1
 
@@ -195,6 +201,7 @@ def neural_model(
         dt=1.0,
         t_end=2000.0,
         init="blobs",
+        init_options={"spacing": SEED_SPACING, "sigma": SEED_SIGMA},
         colours=rgb_channels,
     )
 
