@@ -171,24 +171,28 @@ def simulate_batch(
     max_snapshots: int = 240,
     progress: bool = False,
     unsafe: bool = False,
+    on_chunk: Callable[[int], None] | None = None,
 ) -> Solution:
     """Simulate a batch as one jitted program (vmapped on accelerators; on CPU the members
     run one after another inside the program, which measures faster there).
 
     ``u0`` has shape ``(B, S, *spatial)`` and every parameter a leading axis ``B`` (see
     :func:`morphogen.steppers.batch_params`). Members that blow up do not stop the run: they
-    are marked in ``Solution.valid`` (search strategies score them worst).
+    are marked in ``Solution.valid`` (search strategies score them worst). ``on_chunk(n)`` is
+    called after each compiled chunk of ``n`` steps; an exception it raises stops the run there
+    (a server's cancel button).
     """
     return _drive(
         model, domain, u0, params, batched=True, steps=steps, dt=dt, scheme=scheme,
         noise=noise, clamp=clamp, seed=seed, every=every, max_snapshots=max_snapshots,
-        progress=progress, unsafe=unsafe,
+        progress=progress, unsafe=unsafe, on_chunk=on_chunk,
     )
 
 
 def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, scheme: str,
            noise, clamp, seed: int, every, max_snapshots: int, progress: bool,
-           unsafe: bool, rtol: float | None = None, atol: float | None = None) -> Solution:
+           unsafe: bool, rtol: float | None = None, atol: float | None = None,
+           on_chunk: Callable[[int], None] | None = None) -> Solution:
     start = time.perf_counter()
     if steps < 0:
         raise MorphogenError(f"steps must be >= 0, got {steps}")
@@ -251,6 +255,8 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
         if shots and (done % every == 0 or done == steps):
             shots.add(done, u)
         bar.update(n)
+        if on_chunk is not None:
+            on_chunk(n)
     bar.close()
     state = np.asarray(u)
     snaps, snap_steps = shots.result() if shots else (None, [])

@@ -391,3 +391,30 @@ def test_mesh_limits_and_the_size_error_name_the_detail(client):
     assert limits == {"size": [20.0, 240.0], "detail": [0.2, 1.5], "max_across": 160.0}
     r = client.post("/api/mesh", json={"size": 200, "detail": 1.5})
     assert r.status_code == 400 and "the size can be at most 106" in r.json()["error"]
+
+
+def _poll(client, job, until, timeout=120.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        status = client.get(f"/api/jobs/{job}").json()
+        if until(status):
+            return status
+        time.sleep(0.05)
+    raise AssertionError(f"job {job} never reached the state: {status}")
+
+
+def test_atlas_cancel_stops_the_computation_between_chunks(client):
+    """Cancel takes effect after the chunk in progress (250 steps), not when the whole atlas
+    would have finished; the job reports its share done and an ETA while it runs."""
+    body = {"x": {"name": "k", "lo": 0.05, "hi": 0.065, "n": 4},
+            "y": {"name": "F", "lo": 0.02, "hi": 0.04, "n": 4}, "tile": 32, "steps": 150_000}
+    job = client.post("/api/atlas", json=body).json()["job"]
+    running = _poll(client, job, lambda s: s["progress"] > 0 or s["status"] != "running"
+                    and s["status"] != "queued")
+    assert running["status"] == "running" and 0 < running["progress"] < 0.01
+    assert running["eta_s"] is not None and running["eta_s"] > 0
+    assert "step" in running["message"]
+    client.delete(f"/api/jobs/{job}")
+    stopped = _poll(client, job, lambda s: s["status"] != "running", timeout=30.0)
+    assert stopped["status"] == "cancelled" and stopped["progress"] < 0.5
+    assert stopped["eta_s"] is None

@@ -66,11 +66,20 @@ async def start(request: Request, body: JSONBody):
 
     def work(job: Job, progress: Progress) -> dict[str, Any]:
         n_runs = x["n"] * y["n"]
-        progress(0.0, f"simulating {n_runs} runs at once, {run['steps']} steps each")
+        what = f"simulating {n_runs} runs at once, {run['steps']} steps each"
+        progress(0.0, f"{what} (compiling)")
+        done = 0
+
+        def chunk(n: int) -> None:  # a cancel or the deadline stops the run between chunks
+            nonlocal done
+            done += n
+            progress(done / max(run["steps"], 1), f"{what}: step {done}")
+
         atlas = compute_atlas(
             model, Grid((run["tile"], run["tile"])),
             Axis(x["name"], np.asarray(x["values"])), Axis(y["name"], np.asarray(y["values"])),
             params=base, steps=run["steps"], dt=run["dt"], init=run["init"], seed=run["seed"],
+            on_chunk=chunk,
         )
         progress(1.0, f"{n_runs} runs in {atlas.wall_time:.1f} s")
         # rows from the top: largest y first

@@ -65,7 +65,15 @@ class Job:
             "id": self.id, "kind": self.kind, "status": self.status,
             "progress": round(self.progress, 4), "message": self.message,
             "result": self.result, "error": self.error, "elapsed_s": round(elapsed, 2),
+            "eta_s": self.eta(elapsed),
         }
+
+    def eta(self, elapsed: float) -> float | None:
+        """Seconds left at the rate so far, ``elapsed (1 - p) / p``; None before any progress
+        or once the job has ended."""
+        if self.status != "running" or not 0.0 < self.progress < 1.0:
+            return None
+        return round(elapsed * (1.0 - self.progress) / self.progress, 1)
 
 
 class JobStore:

@@ -84,7 +84,9 @@ export class Atlas {
       const result = await waitForJob(job, (j) => {
         if (j.progress > 0) bar.value = j.progress;
         else bar.removeAttribute('value');
-        this.$('at-message').textContent = `${j.message} (${j.elapsed_s.toFixed(1)} s)`;
+        const done = j.progress > 0 ? `${Math.round(j.progress * 100)} %, ` : '';
+        const eta = j.eta_s == null ? '' : `, about ${Math.ceil(j.eta_s)} s left`;
+        this.$('at-message').textContent = `${j.message} (${done}${j.elapsed_s.toFixed(1)} s${eta})`;
       });
       this.showResult(result);
     } catch (err) {
