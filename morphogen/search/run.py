@@ -185,7 +185,8 @@ def evolve(
             sheet=sheet, seconds=seconds, best_so_far=float(m["best_fitness"]),
             state=state_to_arrays(state),
         ))
-        report.write_fitness_plot(directory, archive.generations(run_id), label)
+        if problem.fitness != "user":  # favourites' selection weights are no fitness to plot
+            report.write_fitness_plot(directory, archive.generations(run_id), label)
         report.write_best(directory, problem, archive.best(run_id, BEST_KEPT), run_id)
         if isinstance(strategy, MapElites):
             _write_qd(directory, problem, strategy, state, archive, run_id, label)

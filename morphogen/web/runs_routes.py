@@ -84,7 +84,8 @@ async def run(request: Request, run_id: str):
                     "init": problem.init},
         "explore": explore_settings(problem),
         "history": gens,
-        "fitness_plot": _file_url(run_id, "fitness.png") if gens else None,
+        "fitness_plot": (_file_url(run_id, "fitness.png")
+                         if gens and problem.fitness != "user" else None),
         "best": [_individual(info, problem, r) for r in archive.best(run_id, 6)],
     }
 
