@@ -15,6 +15,8 @@ corolla (e.g. an :func:`~morphogen.flowers.shapes.urn`) is an organ too, placed 
   (``sepal``, ``petal``, ``lip``, ``corolla``);
 - ``r``: distance from the flower centre in the plane, divided by its maximum.
 
+These replace same-named fields of the organs (a corolla's ``r`` or ``petal``).
+
 Diffusion on the assembled mesh stays inside each organ (no edge joins two organs), as
 pigment patterns on separate tepals develop independently.
 """
