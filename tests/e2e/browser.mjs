@@ -196,13 +196,30 @@ const SCENARIOS = {
     await page.screenshot({ path: join(out, 'evolve-next.png') });
     const runs = await page.evaluate(() => fetch('/api/runs').then((r) => r.json()));
     const gen1 = await page.evaluate((id) => fetch(`/api/runs/${id}/generations/1`).then((r) => r.json()), run);
+    // a reload while the run waits for favourites brings it back, tiles and all
+    await page.reload();
+    await page.waitForFunction((id) => window.morphogenEvolve?.status?.run === id
+      && document.querySelectorAll('#ev-grid .tile').length === 6, run, { timeout: 60000 });
+    const reloaded = await page.evaluate(() => ({ gen: window.morphogenEvolve.status.gen,
+      state: window.morphogenEvolve.status.state, stop: !document.getElementById('ev-stop').hidden }));
+    // the Runs page offers to continue it, and its detail says nothing is "null"
+    await page.goto(`${base}#runs`);
+    await page.click(`tr[data-run="${run}"]`);
+    await page.waitForSelector('#runs-continue');
+    const detailText = await page.textContent('#runs-detail');
+    await page.click('#runs-continue');
+    await page.waitForFunction((id) => window.location.hash === '#evolve'
+      && window.morphogenEvolve?.status?.run === id
+      && document.querySelectorAll('#ev-grid .tile').length === 6, run, { timeout: 60000 });
+    const continued = await page.evaluate(() => window.morphogenEvolve.status.state);
     await page.click('#ev-stop');
     await page.goto(`${base}#runs`);
     await page.click(`tr[data-run="${run}"]`);
     await page.waitForSelector('#runs-sheet img');
     await page.waitForTimeout(800);
     await page.screenshot({ path: join(out, 'runs.png'), fullPage: true });
-    return { run, picked, runs: runs.runs, gen1: gen1.individuals.map((i) => i.fitness) };
+    return { run, picked, runs: runs.runs, gen1: gen1.individuals.map((i) => i.fitness), reloaded,
+      detailText, continued };
   },
 
   async mesh(page) {

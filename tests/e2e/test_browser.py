@@ -114,6 +114,9 @@ def test_one_evolve_generation_with_two_favourites(server):
     expect = [(1 - LAMBDA) / 4] * 6
     expect[1] = expect[4] = LAMBDA / 2
     assert data["gen1"] == pytest.approx(expect, rel=1e-5)
+    # reloading while the run waits for a choice keeps it; Runs offers to continue it
+    assert data["reloaded"] == {"gen": 2, "state": "choose", "stop": True}
+    assert "null" not in data["detailText"] and data["continued"] == "choose"
 
 
 def test_downloaded_params_file_runs_with_the_cli(server, tmp_path):

@@ -3,6 +3,9 @@
 
 import { api, el, fillSelect, fmt, showError } from './api.js';
 
+// The run this tab is showing, so a reload (or the Runs page) can bring it back.
+const RUN_KEY = 'morphogen.evolve.run';
+
 export class Evolve {
   constructor(root, app) {
     this.root = root;
@@ -58,6 +61,23 @@ export class Evolve {
     u.stop.addEventListener('click', () => this.stop());
     u.next.addEventListener('click', () => this.next());
     await this.setup();
+    await this.attach(sessionStorage.getItem(RUN_KEY));
+  }
+
+  // Show a run the server is still running or waiting on (after a reload, or from Runs).
+  async attach(run) {
+    if (!run || this.status?.run === run) return;
+    try {
+      const st = await api(`/api/evolve/${run}`);
+      if (!['running', 'choose'].includes(st.state)) throw new Error(st.state);
+      this.status = st;
+      this.shownGen = 0;
+      this.ui.grid.replaceChildren();
+      sessionStorage.setItem(RUN_KEY, run);
+      await this.poll();
+    } catch (err) {
+      if (sessionStorage.getItem(RUN_KEY) === run) sessionStorage.removeItem(RUN_KEY);
+    }
   }
 
   async setup() {
@@ -112,6 +132,7 @@ export class Evolve {
     };
     try {
       this.status = await api('/api/evolve', { method: 'POST', body });
+      sessionStorage.setItem(RUN_KEY, this.status.run);
       u.grid.replaceChildren();
       this.shownGen = 0;
       this.poll();
@@ -135,6 +156,7 @@ export class Evolve {
     const st = this.status;
     const u = this.ui;
     const active = ['running', 'choose'].includes(st.state);
+    if (!active && sessionStorage.getItem(RUN_KEY) === st.run) sessionStorage.removeItem(RUN_KEY);
     u.start.disabled = active;
     u.stop.hidden = !active;
     u.bar.hidden = st.state !== 'running';

@@ -40,6 +40,13 @@ const app = {
     await this.show('explore');
     await this.pages.explore.load(settings);
   },
+
+  // a run the server is still running or waiting on, shown on the Evolve page
+  async continueEvolve(run) {
+    window.location.hash = '#evolve';
+    await this.show('evolve');
+    await this.pages.evolve.attach(run);
+  },
 };
 
 window.morphogenApp = app;

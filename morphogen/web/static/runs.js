@@ -57,17 +57,26 @@ export class Runs {
       const picker = el('select', { id: 'runs-gen', 'aria-label': 'generation' },
         ...run.history.map((g) => el('option', { value: g.gen, text: `generation ${g.gen} (best ${fmt(g.best ?? NaN)})` })));
       this.sheet = el('div', { id: 'runs-sheet' });
+      const live = await api(`/api/evolve/${id}`).catch(() => null);
+      const waiting = live && ['running', 'choose'].includes(live.state);
+      const resume = waiting ? el('button', {
+        type: 'button', id: 'runs-continue', class: 'primary',
+        text: live.state === 'choose' ? 'Continue choosing on the Evolve page' : 'Follow on the Evolve page',
+        onclick: () => this.app.continueEvolve(id),
+      }) : null;
       picker.addEventListener('change', () => this.generation(Number(picker.value)));
-      this.detail.replaceChildren(
+      this.detail.replaceChildren(...[
         el('h3', { text: `${run.model} · ${run.strategy} · ${run.fitness}` }),
+        resume,
         el('p', { class: 'muted small', text: `genes: ${genes}; grid ${p.size.join('×')}, ${p.steps} steps of dt = ${fmt(p.dt)}, initial ${p.init}` }),
         run.fitness_plot ? el('img', { src: run.fitness_plot, alt: 'fitness over generations', class: 'sheet' }) : null,
         el('h4', { text: 'Best individuals' }),
         this.tiles(run.best, run.explore),
+        this.mapElites(run.map_elites, run.explore),
         el('h4', { text: 'Generations' }),
         run.history.length ? picker : el('p', { class: 'muted', text: 'no generation recorded yet' }),
         this.sheet,
-      );
+      ].filter((node) => node != null)); // replaceChildren would write "null" for a missing part
       if (run.history.length) {
         picker.value = run.history[run.history.length - 1].gen;
         await this.generation(Number(picker.value));
@@ -85,13 +94,25 @@ export class Runs {
     );
   }
 
+  mapElites(archive, explore) {
+    if (!archive) return null;
+    const axes = archive.grid ? archive.grid.descriptors.join(' × ') : '';
+    const box = el('div', { id: 'runs-elites' },
+      el('h4', { text: `MAP-Elites archive: ${archive.elites.length} of ${archive.cells} cells (${axes})` }),
+      archive.map ? el('img', { src: archive.map, alt: 'elite map', class: 'sheet' }) : null,
+      archive.qd_plot ? el('img', { src: archive.qd_plot, alt: 'coverage and QD-score', class: 'sheet' }) : null,
+      el('p', { class: 'muted small', text: 'Click an elite to open it in Explore.' }),
+      this.tiles(archive.elites, explore));
+    return box;
+  }
+
   tiles(individuals, explore) {
     const grid = el('div', { class: 'grid-pop' });
     grid.style.gridTemplateColumns = 'repeat(auto-fill, minmax(110px, 1fr))';
     grid.append(...individuals.map((ind) => {
       const tile = el('div', { class: 'tile', 'data-gen': ind.gen, 'data-idx': ind.idx },
         el('img', { src: ind.image, alt: `generation ${ind.gen} individual ${ind.idx}` }),
-        el('span', { class: 'cap', text: `g${ind.gen} #${ind.idx} f=${fmt(ind.fitness ?? NaN)}` }));
+        el('span', { class: 'cap', text: `${ind.family ? `${ind.family} · ` : ''}g${ind.gen} #${ind.idx} f=${fmt(ind.fitness ?? NaN)}` }));
       tile.addEventListener('click', () => this.app.openInExplore({ ...explore, params: ind.params }));
       const link = el('a', { href: ind.config, download: '', class: 'small', text: 'run.json' });
       return el('div', {}, tile, link);
