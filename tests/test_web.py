@@ -418,3 +418,14 @@ def test_atlas_cancel_stops_the_computation_between_chunks(client):
     stopped = _poll(client, job, lambda s: s["status"] != "running", timeout=30.0)
     assert stopped["status"] == "cancelled" and stopped["progress"] < 0.5
     assert stopped["eta_s"] is None
+
+
+def test_atlas_flags_grid_scale_checkerboards():
+    """A checkerboard tile is flagged (shown like a blow-up), a resolved pattern is not."""
+    from morphogen.web.atlas_routes import _grid_scale
+
+    i, j = np.indices((32, 32))
+    checker = ((i + j) % 2).astype(np.float32)
+    stripes = np.sin(2 * np.pi * j / 8).astype(np.float32)
+    assert _grid_scale(np.stack([checker, stripes, checker + 0.1 * stripes])).tolist() == \
+        [True, False, True]

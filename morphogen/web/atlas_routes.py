@@ -49,6 +49,18 @@ def parse_axis(spec: Any, model_params: dict[str, float], which: str, limits: Li
             "values": np.linspace(lo, hi, n).tolist() if n > 1 else [lo]}
 
 
+def _grid_scale(fields: np.ndarray) -> np.ndarray:
+    """Tiles whose power sits at grid scale (a checkerboard: a numerical instability, not a
+    pattern), by the classifier's rule (:data:`morphogen.patterns.classify.GRID_ENERGY`)."""
+    import jax
+
+    from morphogen.patterns.classify import GRID_ENERGY
+    from morphogen.patterns.descriptors import describe
+
+    energy = jax.vmap(lambda f: describe(f)["grid_energy"])(np.nan_to_num(fields))
+    return np.asarray(energy) > GRID_ENERGY
+
+
 @router.post("")
 async def start(request: Request, body: JSONBody):
     """Validate an atlas request and queue it; returns ``{"job": id}``."""
@@ -84,14 +96,16 @@ async def start(request: Request, body: JSONBody):
         progress(1.0, f"{n_runs} runs in {atlas.wall_time:.1f} s")
         # rows from the top: largest y first
         states = atlas.states[::-1].reshape(n_runs, *atlas.states.shape[2:])
-        valid = atlas.valid[::-1]
+        grid_scale = _grid_scale(states[:, model.species_index(run["species"])])
+        valid = atlas.valid[::-1] & ~grid_scale.reshape(y["n"], x["n"])
         image = batch.mosaic(states, model, run["species"], cmap, (y["n"], x["n"]), PAD,
                              valid=valid.reshape(-1))
         job.files["atlas.png"] = (iio.imwrite("<bytes>", image, extension=".png"), "image/png")
         return {
             "image": f"/api/jobs/{job.id}/files/atlas.png",
             "x": x, "y": y, "tile": run["tile"], "pad": PAD,
-            "valid": valid.tolist(), "wall_time_s": round(atlas.wall_time, 3),
+            "valid": valid.tolist(), "grid_scale": int(grid_scale.sum()),
+            "wall_time_s": round(atlas.wall_time, 3),
             "model": spec, "model_name": model.name, "params": base,
             "dt": run["dt"], "steps": run["steps"], "init": run["init"], "seed": run["seed"],
         }

@@ -120,8 +120,11 @@ export class Atlas {
       ...res.x.values.map((v) => el('span', { text: `${res.x.name}=${fmt(v)}` })),
     );
     const bad = res.valid.flat().filter((v) => !v).length;
+    const blown = bad - res.grid_scale;
+    const notes = [blown ? `${blown} blew up` : '', res.grid_scale ? `${res.grid_scale} grew a grid-scale checkerboard (a numerical instability: lower dt)` : '']
+      .filter(Boolean).join(', ');
     this.$('at-message').textContent = `${res.model_name}: ${res.x.n} × ${res.y.n} tiles of ${res.tile}², `
-      + `${res.steps} steps of dt = ${fmt(res.dt)}` + (bad ? `; ${bad} blew up (magenta)` : '');
+      + `${res.steps} steps of dt = ${fmt(res.dt)}` + (notes ? `; ${notes} (magenta)` : '');
   }
 
   // tile under the pointer: {i (row from the top), j (column)} or null
