@@ -58,7 +58,7 @@ def test_cli_network_mode_runs_and_resumes(tmp_path, capsys):
 
     args = ["networks", "--mode", "network", "--out", str(tmp_path / "n"), "--population", "4",
             "--size", "8", "--dt", "0.5", "--t-start", "5", "--interval", "5", "--rounds", "2",
-            "--quiet"]
+            "--quiet", "--archive", str(tmp_path / "index.sqlite")]
     assert main(args + ["--generations", "1"]) == 0
     assert main(args + ["--generations", "2"]) == 2  # the folder already holds a run
     assert "--resume" in capsys.readouterr().err

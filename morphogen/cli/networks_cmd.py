@@ -24,7 +24,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "inhibitor-catalyst network (Table 2, §4.1); --mode network evolves the reactions "
         "themselves for 3 species with static inflow/decay and up to --m-max reactions "
         "(§4.2). Defaults are Table 1. Writes DIR/state.npz (resumable), DIR/history.csv "
-        "(fitness per generation and individual) and DIR/best.json (best reaction table). "
+        "(fitness per generation and individual), DIR/best.json (best reaction table) and "
+        "DIR/best/best_1.json (replay with `morphogen simulate --config`); the run is recorded "
+        "in the run archive (`morphogen runs`, `morphogen runs show DIR`). "
         "`morphogen networks export DIR|table2 --out FILE` writes a network as a model file, "
         "Antimony, SBML, PNG or SVG (see `morphogen networks export --help`).",
     )
@@ -41,6 +43,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--rounds", type=int, default=10, help="evaluation rounds")
     p.add_argument("--m-max", type=int, default=12, help="reaction slots (network mode)")
     p.add_argument("--tournament", type=int, default=2)
+    p.add_argument("--archive", help="run archive (default $MORPHOGEN_ARCHIVE or "
+                   "runs/index.sqlite); `morphogen runs` lists the run")
+    p.add_argument("--executor", choices=("local", "ray"), default="local",
+                   help="evaluate each generation here, or split over Ray workers")
+    p.add_argument("--address", help="Ray cluster address (default: start a local Ray)")
+    p.add_argument("--batches", type=int, help="Ray tasks per generation (default: one per "
+                   "CPU)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or log")
     p.set_defaults(func=run)
     actions = p.add_subparsers(dest="action", metavar="{export}", parser_class=type(p))
@@ -48,6 +57,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from dataclasses import asdict
+
+    from morphogen.search.archive import Archive
+    from morphogen.search.networks import record
     from morphogen.search.networks.evolve import Evaluation, completed
     from morphogen.search.networks.evolve import run as evolve
     from morphogen.search.networks.genome import (
@@ -71,7 +84,24 @@ def run(args: argparse.Namespace) -> int:
     ops = Operators(mode=args.mode, tournament=args.tournament)
     ev = Evaluation(size=args.size, dt=args.dt, t_start=args.t_start, interval=args.interval,
                     rounds=args.rounds)
+    if args.executor != "ray" and (args.address or args.batches):
+        raise MorphogenError("--address and --batches need --executor ray")
     out = ensure_writable_dir(args.out)
+    if args.resume:
+        run_id, archive = record.resume(out, args.archive, args.generations)
+    elif (out / "state.npz").exists() or (out / "config.json").exists():
+        raise MorphogenError(f"{out} already holds a run; use --resume or another --out")
+    else:
+        archive = Archive(args.archive)
+        run_id = record.start(out, archive, {
+            "mode": args.mode, "generations": args.generations, "population": args.population,
+            "seed": args.seed, "spec": asdict(spec), "ops": asdict(ops), "ev": asdict(ev)})
+    evaluator = None
+    if args.executor == "ray":
+        from morphogen.search.networks.executors import RayNetworkEvaluator
+
+        evaluator = RayNetworkEvaluator(address=args.address, batches=args.batches)
+    recorder = record.Recorder(archive, run_id, Path(out), spec, asdict(ev))
     done = completed(out) if args.resume else 0
     per_gen = ev.start_steps + (ev.rounds - 1) * ev.round_steps
     bar = ProgressBar(max(args.generations - done, 0) * per_gen, enabled=not args.quiet,
@@ -81,9 +111,10 @@ def run(args: argparse.Namespace) -> int:
             spec, template, out, ops=ops, ev=ev, population=args.population,
             generations=args.generations, seed=args.seed, resume=args.resume,
             log=(lambda s: None) if args.quiet else print,
-            progress=bar.update)
+            progress=bar.update, evaluator=evaluator, on_generation=recorder)
     finally:
         bar.close()
+    archive.set_status(run_id, "done")
     buf = io.StringIO()
     np.savetxt(buf, history, delimiter=",", fmt="%.4f")
     write_atomic(Path(out) / "history.csv", lambda fh: fh.write(buf.getvalue().encode()))
@@ -92,5 +123,6 @@ def run(args: argparse.Namespace) -> int:
     write_json(Path(out) / "best.json", {"mode": args.mode, "fitness": float(fitness[best]),
                                          "reactions": describe(genome, spec)})
     if not args.quiet:
-        print(f"best fitness {fitness[best]:.2f}; reactions in {Path(out) / 'best.json'}")
+        print(f"best fitness {fitness[best]:.2f}; reactions in {Path(out) / 'best.json'}; "
+              f"run {run_id} (morphogen runs show {out})")
     return 0

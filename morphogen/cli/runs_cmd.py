@@ -61,6 +61,10 @@ def show(archive: Archive, run_id: str) -> str:
 
     r = archive.run(run_id)
     c = r["config"]
+    if c.get("kind") == "networks":
+        from morphogen.search.networks.record import show as show_network
+
+        return show_network(archive, run_id)
     p, s = c["problem"], c["strategy"]
     genes = ", ".join(f"{g['name']}=[{g['low']:g}, {g['high']:g}]" for g in p["genes"][:8])
     if len(p["genes"]) > 8:

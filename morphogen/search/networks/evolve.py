@@ -154,9 +154,16 @@ def run(
     resume: bool = False,
     log: Callable[[str], Any] = print,
     progress: Callable[[int], None] | None = None,
+    evaluator: Callable[..., tuple[np.ndarray, np.ndarray]] | None = None,
+    on_generation: Callable[[int, Genome, np.ndarray], None] | None = None,
 ) -> tuple[Genome, np.ndarray, np.ndarray]:
     """Evolve; returns the final population, its fitness ``(P,)`` and the fitness history
-    ``(generations, P)``. Saves ``state.npz`` every generation and resumes from it."""
+    ``(generations, P)``. Saves ``state.npz`` every generation and resumes from it.
+
+    ``evaluator`` replaces :func:`evaluate` (same signature; e.g. a Ray executor's);
+    ``on_generation(gen, population, fitness)`` (0-based ``gen``) runs after each evaluation,
+    before ``state.npz`` is saved (the run archive's record).
+    """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     path = out / "state.npz"
@@ -182,8 +189,10 @@ def run(
         if gen > 0:
             pop = breed(jax.random.fold_in(root, 2 * gen + 1), pop, jnp.asarray(fitness))
         u0 = initial_state(jax.random.fold_in(root, 2 * gen + 2), spec, ev)
-        fitness, _ = evaluate(pop, u0, spec, ev, progress)
+        fitness, _ = (evaluator or evaluate)(pop, u0, spec, ev, progress)
         history = np.concatenate([history, fitness[None]])
+        if on_generation is not None:
+            on_generation(gen, pop, fitness)
         save_state(path, pop, history, gen + 1, meta)
         valid = fitness > INVALID
         log(f"generation {gen + 1}/{generations}: best {fitness.max():.2f}, "

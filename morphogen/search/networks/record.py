@@ -1,0 +1,205 @@
+"""Network-evolution runs in the run archive (Yamamoto §3.4, with :mod:`morphogen.search.archive`).
+
+A ``morphogen networks`` run folder keeps its own resumable ``state.npz``
+(:mod:`morphogen.search.networks.evolve`); this module records the same run in the SQLite
+archive that ``morphogen evolve`` uses, so ``morphogen runs`` lists it and ``morphogen runs
+show`` summarises it:
+
+- ``config.json`` in the run folder (id, archive path, settings, ``"kind": "networks"``) and a
+  row in ``runs`` (strategy ``net-rates`` or ``net-network``, fitness ``cluster``);
+- per generation, one ``generations`` row and one ``individuals`` row per genome, the genome
+  flattened by :func:`genome_vectors` (mantissas, exponents, ``M_e``, ``M_p``, active mask);
+- ``best/best_1.json``: a ``run.json`` whose model is the exported model file
+  (:func:`~morphogen.search.networks.export.genome_network`) of the fittest genome so far, so
+  ``morphogen simulate --config best/best_1.json`` replays it on the evaluation's grid, time
+  step and number of steps, from a uniform random state in ``[0, init_high)`` as in §3.1.
+
+A generation is recorded *before* ``state.npz`` is saved: a run killed between the two repeats
+that generation on ``--resume`` and records it again (replacing the row), with the same numbers,
+since the resumed run is bit-identical.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Sequence
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from morphogen.errors import MorphogenError
+from morphogen.io import write_json
+from morphogen.search.archive import CONFIG, Archive, Generation, new_run_id
+from morphogen.search.fitness import INVALID
+from morphogen.search.networks.genome import Genome, NetworkSpec, describe
+
+KIND = "networks"
+"""``config["kind"]`` of a network-evolution run."""
+
+
+def spec_from_dict(s: dict[str, Any]) -> NetworkSpec:
+    """A :class:`NetworkSpec` from its ``asdict`` form (lists back to tuples)."""
+    return NetworkSpec(tuple(s["species"]), int(s["m_max"]), tuple(s["diffusion"]),
+                       tuple(s["fixed"]), tuple(s["fixed_rates"]), int(s["exp_min"]),
+                       int(s["exp_max"]))
+
+
+def genome_vectors(pop: Genome) -> np.ndarray:
+    """``(P, m + m + 2·n·m + m)`` floats: mantissas, exponents, ``M_e``, ``M_p`` (row-major
+    ``n × m``), active mask — a population as the archive's genome rows."""
+    parts = [np.asarray(x, np.float64) for x in pop]
+    size = parts[0].shape[0]
+    return np.concatenate([p.reshape(size, -1) for p in parts], axis=1)
+
+
+def vector_genome(vector: Sequence[float], spec: NetworkSpec) -> Genome:
+    """Inverse of :func:`genome_vectors` for one genome."""
+    n, m = spec.n, spec.m_max
+    v = np.asarray(vector, np.float64)
+    if v.shape != (3 * m + 2 * n * m,):
+        raise MorphogenError(f"archived genome has {v.size} numbers; this spec needs "
+                             f"{3 * m + 2 * n * m}")
+    cut = np.cumsum([m, m, n * m, n * m])
+    mant, expo, me, mp, active = np.split(v, cut)
+    return Genome(mant.astype(np.int32), expo.astype(np.int32),
+                  me.reshape(n, m).astype(np.int32), mp.reshape(n, m).astype(np.int32),
+                  active.astype(bool))
+
+
+def start(out: Path, archive: Archive, settings: dict[str, Any]) -> str:
+    """Register a new run for the folder ``out``: ``config.json`` and the archive's row.
+
+    ``settings`` is the loop's ``meta`` (spec, ops, ev, population, seed) plus ``mode`` and
+    ``generations``.
+    """
+    mode = settings["mode"]
+    run_id = new_run_id(f"net-{mode}")
+    config = {
+        "id": run_id, "archive": str(archive.path), "kind": KIND,
+        "seed": int(settings["seed"]), "generations": int(settings["generations"]),
+        "strategy": {"name": f"net-{mode}", "population": int(settings["population"]),
+                     **settings["ops"]},
+        "problem": {"model": "table2" if mode == "rates" else "network", "fitness": "cluster",
+                    "spec": settings["spec"], "ev": settings["ev"]},
+    }
+    write_json(Path(out) / CONFIG, config)
+    archive.create_run(run_id, Path(out), config)
+    return run_id
+
+
+def resume(out: Path, archive_path: str | None, generations: int) -> tuple[str, Archive]:
+    """The run id and archive of the folder ``out``, its planned generations set to
+    ``generations`` (``--resume`` may extend a run)."""
+    try:
+        config = json.loads((Path(out) / CONFIG).read_text())
+        run_id, path = config["id"], archive_path or config["archive"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise MorphogenError(f"{out} has no readable {CONFIG}; it was not recorded in a run "
+                             "archive (start a new run with another --out)") from None
+    archive = Archive(path, create=False)
+    archive.run(run_id)
+    if config.get("generations") != generations:
+        config["generations"] = int(generations)
+        write_json(Path(out) / CONFIG, config)
+        _set_generations(archive, run_id, config)
+    return run_id, archive
+
+
+def _set_generations(archive: Archive, run_id: str, config: dict[str, Any]) -> None:
+    import sqlite3
+    from contextlib import closing
+
+    with closing(sqlite3.connect(archive.path, timeout=30.0)) as db, db:
+        db.execute("UPDATE runs SET generations=?, config=? WHERE id=?",
+                   (config["generations"], json.dumps(config), run_id))
+
+
+class Recorder:
+    """The loop's per-generation hook: one archive generation and ``best/best_1.json``."""
+
+    def __init__(self, archive: Archive, run_id: str, out: Path, spec: NetworkSpec,
+                 ev: dict[str, Any]):
+        self.archive, self.run_id, self.out, self.spec, self.ev = archive, run_id, out, spec, ev
+        self._clock = time.perf_counter()
+
+    def __call__(self, gen: int, pop: Genome, fitness: np.ndarray) -> None:
+        now = time.perf_counter()
+        seconds, self._clock = now - self._clock, now
+        fitness = np.asarray(fitness, np.float32)
+        previous = [g["best_so_far"] for g in self.archive.generations(self.run_id)
+                    if g["gen"] < gen + 1 and g["best_so_far"] is not None]
+        size = fitness.shape[0]
+        self.archive.record_generation(self.run_id, Generation(
+            gen=gen + 1, genomes=genome_vectors(pop), fitness=fitness, valid=fitness > INVALID,
+            images=[""] * size, sheet="", seconds=seconds,
+            best_so_far=max([float(fitness.max()), *previous]), state={}))
+        best = self.archive.best(self.run_id, 1)[0]
+        (self.out / "best").mkdir(exist_ok=True)
+        write_json(self.out / "best" / "best_1.json", self.best_run_file(best))
+
+    def best_run_file(self, best: dict[str, Any]) -> dict[str, Any]:
+        """A ``run.json`` object replaying the archived individual ``best``."""
+        return best_run_file(best, self.spec, self.ev, self.run_id, self.out)
+
+
+def best_run_file(best: dict[str, Any], spec: NetworkSpec, ev: dict[str, Any], run_id: str,
+                  out: Path) -> dict[str, Any]:
+    """``run.json`` for an archived individual: the exported model file embedded, the
+    evaluation's grid, ``dt`` and steps to its last round, a uniform random initial state."""
+    from morphogen.models.network import to_toml
+    from morphogen.runfile import FORMAT, RunConfig
+    from morphogen.search.networks.export import genome_network
+
+    dt = float(ev["dt"])
+    steps = int(round(ev["t_start"] / dt)) + (int(ev["rounds"]) - 1) * max(
+        1, int(round(ev["interval"] / dt)))
+    net = genome_network(vector_genome(best["genome"], spec), spec, name=f"{run_id}-best",
+                         dt=dt, t_end=steps * dt,
+                         description=f"best genome of run {run_id} (fitness "
+                         f"{best['fitness']:.2f})")
+    config = RunConfig(model=f"{out.name}-best.toml", model_source=to_toml(net),
+                       size=[int(ev["size"])] * 2, dt=dt, steps=steps, init="random",
+                       init_options={"low": 0.0, "high": float(ev["init_high"])}, clamp=None)
+    record = {"format": FORMAT, "config": asdict(config)}
+    record["evolved"] = {"run": run_id, "generation": best["gen"], "index": best["idx"],
+                         "fitness": best["fitness"], "fitness_kind": "cluster"}
+    return record
+
+
+def show(archive: Archive, run_id: str) -> str:
+    """``morphogen runs show`` for a network run: settings, generations, best reactions."""
+    r = archive.run(run_id)
+    c = r["config"]
+    p, s, ev = c["problem"], c["strategy"], c["problem"]["ev"]
+    spec = spec_from_dict(p["spec"])
+    lines = [
+        f"run {r['id']} ({r['status']}), created "
+        f"{time.strftime('%Y-%m-%d %H:%M', time.localtime(r['created']))}",
+        f"  directory  {r['dir']}",
+        f"  network    {p['model']}  species {', '.join(spec.species)}  slots {spec.m_max}  "
+        f"D {', '.join(f'{d:g}' for d in spec.diffusion)}",
+        f"  evaluation grid {ev['size']}x{ev['size']}  dt {ev['dt']:g}  from t = "
+        f"{ev['t_start']:g} every {ev['interval']:g}, {ev['rounds']} rounds",
+        f"  strategy   {s['name']}  population {s['population']}  tournament "
+        f"{s.get('tournament', '-')}",
+        f"  fitness    cluster  seed {c['seed']}  generations {c['generations']}",
+        "",
+        f"  {'gen':>4} {'best':>9} {'mean':>9} {'so far':>9} {'valid':>6} {'seconds':>8}",
+    ]
+    for g in archive.generations(run_id):
+        cells = [f"{'-':>9}" if g[k] is None else f"{g[k]:>9.2f}"
+                 for k in ("best", "mean", "best_so_far")]
+        lines.append(f"  {g['gen']:>4} {' '.join(cells)} {g['valid']:>6} {g['seconds']:>8.1f}")
+    best = archive.best(run_id, 1)
+    if best:
+        b = best[0]
+        lines += ["", f"  best individual: fitness {b['fitness']:.2f} (generation {b['gen']}, "
+                      f"#{b['idx']})"]
+        for row in describe(vector_genome(b["genome"], spec), spec):
+            if row["k"] or not row["fixed"]:
+                lines.append(f"    {row['reaction']:<28} k = {row['k']:.2g}")
+        lines.append(f"  replay: morphogen simulate --config {r['dir']}/best/best_1.json")
+    return "\n".join(lines)
