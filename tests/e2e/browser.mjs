@@ -246,10 +246,23 @@ const SCENARIOS = {
     await page.mouse.move(box.x + box.width / 2 + 40, box.y + box.height / 2 - 60, { steps: 6 });
     await page.mouse.up();
     const after = await print();
+    // a long downward drag tilts the flower, but never edge-on
+    await page.mouse.move(box.x + box.width / 2, box.y + 10);
+    await page.mouse.down();
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height - 10, { steps: 8 });
+    await page.mouse.up();
+    const tilt = await page.evaluate(() => window.morphogenMesh.rot.b);
+    // redraw rate while turning (recorded for docs/web.md, not asserted: timings are measured)
+    const fps = await page.evaluate(() => {
+      const m = window.morphogenMesh;
+      const t0 = performance.now();
+      for (let i = 0; i < 30; i += 1) { m.rot.a += 0.05; m.draw(); }
+      return 30000 / (performance.now() - t0);
+    });
     await page.waitForTimeout(300);
     await page.screenshot({ path: join(out, 'mesh.png') });
     const res = await page.evaluate(() => window.morphogenMesh.mesh.f.length / 3);
-    return { before, after, faces: res };
+    return { before, after, faces: res, tilt, fps };
   },
 
   async tabs(page, context) {

@@ -161,6 +161,8 @@ def test_mesh_page_grows_and_rotates_a_flower(server):
     data = scenario(server, "mesh")
     assert data["faces"] > 1000
     assert data["before"] != data["after"], "dragging did not rotate the view"
+    assert 0 < data["tilt"] <= 1.2 + 1e-9  # tilted by the drag, never edge-on
+    (OUT / "mesh-fps.txt").write_text(f"{data['fps']:.1f} frames/s, {data['faces']} faces\n")
 
 
 def test_hidden_elements_keys_presets_and_slider_ranges(server):
