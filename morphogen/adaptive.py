@@ -185,7 +185,7 @@ def simulate_adaptive(
     p = {k: jnp.asarray(v, dtype) for k, v in params.items()}
     run = _segment(model, domain, int(max_steps))
     chunk = every or max(1, min(steps, 250))
-    ends = list(range(chunk, steps, chunk)) + [steps]
+    ends = [*range(chunk, steps, chunk), steps] if steps > 0 else []
     saved = _thin([0, *ends], max_snapshots) if every else set()
     shots = [(0, np.asarray(u))] if every else []
     scale = observed_scale(u, model, p, False)
