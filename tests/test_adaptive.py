@@ -90,6 +90,15 @@ def test_stiff_diffusion_rejects_steps_and_a_spent_budget_is_one_line():
     assert "\n" not in str(info.value)
 
 
+def test_a_diverging_run_stops_with_one_line():
+    f, _ = _mode()
+    # k = -30: u grows as exp(30 t), past 1e4 times its starting scale by t = 0.5
+    with pytest.raises(MorphogenError, match="run diverging at t=0.5") as info:
+        simulate_adaptive(LINEAR, GRID, f[None], {"k": -30.0, "D": 0.8}, steps=10, dt=0.05,
+                          max_steps=BUDGET)
+    assert "\n" not in str(info.value)
+
+
 def test_gradient_matches_finite_differences():
     """Reverse mode (``jax.grad``, diffrax's checkpointed adjoint) through the adaptive steps."""
     grid = Grid((6, 6), boundary="neumann")
