@@ -159,8 +159,17 @@ const SCENARIOS = {
     await page.waitForSelector('#at-result:not([hidden])', { timeout: 120000 });
     await page.waitForTimeout(300);
     await page.screenshot({ path: join(out, 'atlas.png') });
-    // click the tile in the top row, second column: x = second k, y = largest F
     const res = await page.evaluate(() => window.morphogenAtlas.result);
+    // a refused request's error replaces the atlas shown before, then a good one brings it back
+    const lo = await page.inputValue('#at-x-lo');
+    await page.fill('#at-x-hi', lo);
+    await page.click('#at-go');
+    await page.waitForSelector('#at-error:not([hidden])');
+    const staleShown = await page.isVisible('#at-result');
+    await page.fill('#at-x-hi', String(res.x.hi));
+    await page.click('#at-go');
+    await page.waitForSelector('#at-result:not([hidden])', { timeout: 120000 });
+    // click the tile in the top row, second column: x = second k, y = largest F
     const box = await page.locator('#at-image').boundingBox();
     const cell = (res.tile + res.pad) / (res.x.n * (res.tile + res.pad) + res.pad);
     await page.mouse.click(box.x + box.width * (1.5 * cell), box.y + box.height * (0.5 * cell));
@@ -172,7 +181,7 @@ const SCENARIOS = {
     const params = await page.evaluate(() => window.morphogenExplore.state.params);
     const size = await page.evaluate(() => window.morphogenExplore.state.size);
     return { x: res.x, y: res.y, valid: res.valid, params, size, tile: res.tile,
-      sizeShown: await page.inputValue('#ex-size') };
+      sizeShown: await page.inputValue('#ex-size'), staleShown };
   },
 
   async evolve(page) {

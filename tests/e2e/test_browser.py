@@ -144,6 +144,7 @@ def test_atlas_tile_opens_in_explore(server):
     assert data["params"]["k"] == pytest.approx(data["x"]["values"][1])
     # the tile's own grid, so Explore grows the pattern the tile showed; the Grid box shows it
     assert data["size"] == data["tile"] == 32 and data["sizeShown"] == "32"
+    assert not data["staleShown"]  # an error does not sit over the previous atlas
 
 
 def test_two_tabs_have_their_own_simulations(server):

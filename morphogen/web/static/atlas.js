@@ -90,6 +90,10 @@ export class Atlas {
       });
       this.showResult(result);
     } catch (err) {
+      // the error replaces the previous atlas: it must not look like this request's result
+      this.$('at-result').hidden = true;
+      this.$('at-message').textContent = '';
+      this.result = null;
       showError(this.$('at-error'), err.message);
     } finally {
       this.$('at-go').disabled = false;

@@ -98,6 +98,11 @@ export class Mesh {
       u.message.textContent = `${res.model} on ${res.n_vertices} vertices, ${res.steps} steps of dt = ${fmt(res.dt)} `
         + `(${res.wall_time_s} s); ${res.species} from ${res.range[0].toPrecision(3)} to ${res.range[1].toPrecision(3)}`;
     } catch (err) {
+      // the error replaces the previous flower: it must not look like this request's result
+      this.mesh = null;
+      u.canvas.getContext('2d').clearRect(0, 0, u.canvas.width, u.canvas.height);
+      u.still.hidden = true;
+      u.message.textContent = '';
       showError(u.error, err.message);
     } finally {
       u.go.disabled = false;
