@@ -1,8 +1,9 @@
 """Routes of the Runs page: browse the archive shared with ``morphogen evolve`` / ``runs``.
 
 Files of a run (contact sheets, individuals' pictures, the fitness plot, best individuals'
-run files) are served from the run's directory only: the requested path is resolved and must
-stay inside that directory and end in ``.png`` or ``.json``.
+run files, a MAP-Elites run's elite map, coverage plot and elites' run files) are served from
+the run's directory only: the requested path is resolved and must stay inside that directory
+and end in ``.png`` or ``.json``.
 """
 
 from __future__ import annotations
@@ -87,7 +88,33 @@ async def run(request: Request, run_id: str):
         "fitness_plot": (_file_url(run_id, "fitness.png")
                          if gens and problem.fitness != "user" else None),
         "best": [_individual(info, problem, r) for r in archive.best(run_id, 6)],
+        "map_elites": _map_elites(info, problem),
     }
+
+
+def _map_elites(run: dict[str, Any], problem: Problem) -> dict[str, Any] | None:
+    """A MAP-Elites run's archive (``elites/index.json``, :mod:`morphogen.search.qd_report`):
+    its picture, coverage plot and every elite as an individual with its cell and family."""
+    import json
+
+    root = Path(run["dir"])
+    try:
+        index = json.loads((root / "elites" / "index.json").read_text())
+    except (OSError, ValueError):
+        return None
+    elites = []
+    for e in index.get("elites", []):
+        if e.get("generation") is None:
+            continue
+        row = {"gen": e["generation"], "idx": e["index"], "fitness": e["fitness"],
+               "valid": True, "image": e["image"], "genome": e["genome"]}
+        elites.append({**_individual(run, problem, row), "cell": e["cell"],
+                       "descriptors": e["descriptors"], "family": e.get("family"),
+                       "config": _file_url(run["id"], e["run_file"])})
+    files = {name: _file_url(run["id"], name) if (root / name).is_file() else None
+             for name in ("elites.png", "qd.png")}
+    return {"grid": index.get("grid"), "cells": index.get("cells"), "elites": elites,
+            "map": files["elites.png"], "qd_plot": files["qd.png"]}
 
 
 @router.get("/{run_id}/generations/{gen}")
