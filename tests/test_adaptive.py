@@ -15,7 +15,7 @@ from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
 from morphogen.models.equations import load_model
 from morphogen.models.model import Model
-from morphogen.runfile import RunConfig, execute
+from morphogen.runfile import RunConfig, prepare, run_prepared, run_record
 from morphogen.simulate import simulate, simulate_batch
 from morphogen.steppers import Noise
 
@@ -155,14 +155,17 @@ def test_auto_picks_imex_on_stiff_schnakenberg_and_euler_on_gray_scott():
     assert sol.scheme == "euler"
 
 
-def test_run_file_records_adaptive_steps(tmp_path):
+def test_run_file_records_adaptive_steps():
     config = RunConfig(model="examples/schnakenberg.toml", size=[N, N], time=0.2, dt=0.01,
                        scheme="adaptive", rtol=1e-3, atol=1e-6)
-    sol = execute(config, tmp_path / "run")
-    record = json.loads((tmp_path / "run" / "run.json").read_text())
+    prep = prepare(config)
+    sol = run_prepared(prep)
+    record = json.loads(json.dumps(run_record(prep, sol, sol.wall_time)))
     assert record["config"]["scheme"] == "adaptive"
     assert record["config"]["rtol"] == 1e-3
+    assert record["resolved"]["scheme"] == "adaptive"
     assert record["resolved"]["accepted_steps"] == sol.steps > 0
     assert record["resolved"]["rejected_steps"] == sol.rejected_steps
     assert sol.t == pytest.approx(0.2)
-    assert sol.scheme == "adaptive"
+    replay = RunConfig.from_dict(record["config"])
+    assert (replay.scheme, replay.rtol, replay.atol) == ("adaptive", 1e-3, 1e-6)
