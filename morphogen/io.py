@@ -20,6 +20,19 @@ import numpy as np
 from morphogen.errors import MorphogenError
 
 
+def read_text(path: str | Path, what: str) -> str:
+    """A UTF-8 text file's contents; a missing, unreadable or non-UTF-8 file is a one-line
+    :class:`MorphogenError` naming ``what`` it should have been (e.g. ``"model file"``)."""
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise MorphogenError(f"{what} {path} not found") from None
+    except UnicodeDecodeError:
+        raise MorphogenError(f"{what} {path} is not UTF-8 text") from None
+    except OSError as exc:
+        raise MorphogenError(f"cannot read {what} {path}: {exc.strerror}") from None
+
+
 def ensure_writable_dir(path: str | Path) -> Path:
     """Create ``path`` if needed and check it is a writable directory (clear error if not)."""
     p = Path(path)

@@ -39,6 +39,7 @@ from typing import Any
 
 from morphogen import guard
 from morphogen.errors import MorphogenError
+from morphogen.io import read_text
 from morphogen.models.equation_terms import check_coefficient, principal_tensor, split_equation
 from morphogen.models.expr import FUNCTIONS, Evaluator, ExpressionError, compile_node, parse
 from morphogen.models.model import Array, Model, Params
@@ -82,15 +83,7 @@ def load_model(name_or_path: str | os.PathLike) -> Model:
 def load_model_file(path: str | os.PathLike) -> Model:
     """Read and parse a model file (see :func:`parse_model`)."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise MorphogenError(f"model file {path} not found") from None
-    except UnicodeDecodeError:
-        raise MorphogenError(f"model file {path} is not UTF-8 text") from None
-    except OSError as exc:
-        raise MorphogenError(f"cannot read model file {path}: {exc.strerror}") from None
-    return parse_model(text, name=path.stem, path=path)
+    return parse_model(read_text(path, "model file"), name=path.stem, path=path)
 
 
 def parse_model(

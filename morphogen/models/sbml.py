@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from morphogen.errors import MorphogenError
+from morphogen.io import read_text
 from morphogen.models.model import Model
 from morphogen.models.network import ReactionNetwork, to_toml
 
@@ -50,14 +51,7 @@ def load_network_file(path: str | os.PathLike) -> Model:
 def read_network_file(path: str | os.PathLike) -> ReactionNetwork:
     """Read an Antimony or SBML file as a :class:`ReactionNetwork` (by its suffix)."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise MorphogenError(f"network file {path} not found") from None
-    except UnicodeDecodeError:
-        raise MorphogenError(f"network file {path} is not UTF-8 text") from None
-    except OSError as exc:
-        raise MorphogenError(f"cannot read network file {path}: {exc.strerror}") from None
+    text = read_text(path, "network file")
     if path.suffix.lower() in ANTIMONY_SUFFIXES:
         return read_antimony(text, where=str(path))
     return read_sbml(text, where=str(path), name=path.stem)
