@@ -6,13 +6,17 @@ candidate runs once to compile, then the candidates are timed interleaved for ``
 rounds; the median wall time is reported with the load average around the run. Accuracy is
 measured against an RK4 run at ``dt = 0.0025`` in float64 (fourth order, far below its
 stability limit): the relative L2 error of ``u`` and the Pearson correlation of the patterns.
+``python -m bench.bench_integrators`` draws ``docs/images/schemes/accuracy_vs_time.png`` from
+the stored result.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import statistics
 import time
+from pathlib import Path
 
 import jax
 import numpy as np
@@ -102,3 +106,32 @@ def run() -> dict:
         "load_average_after": load_after,
         "results": table,
     }
+
+
+def plot(result: dict, path: Path) -> None:
+    """Error against wall time, one point per candidate, log-log."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=120)
+    for i, (name, r) in enumerate(result["results"].items()):
+        ax.loglog(r["wall_s_median"], r["relative_l2_error_u"], "o")
+        ax.annotate(name, (r["wall_s_median"], r["relative_l2_error_u"]), fontsize=8,
+                    xytext=(5, -11 if i % 2 else 4), textcoords="offset points")
+    ax.set_xlabel("wall time to t = 30 (s, median of 3)")
+    ax.set_ylabel("relative L2 error of u")
+    ax.set_title("Schnakenberg Dv/Du = 40, 128², float32", fontsize=10)
+    ax.set_xlim(right=ax.get_xlim()[1] * 3)
+    ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    here = Path(__file__).parent
+    plot(json.loads((here / "results" / "integrators.json").read_text()),
+         here.parent / "docs" / "images" / "schemes" / "accuracy_vs_time.png")
