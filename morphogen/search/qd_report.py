@@ -18,7 +18,8 @@ rebuilt from the archive, so a resumed run rewrites them whole):
   an invalid one 0, and the curve never falls.
 - ``elites.png`` after the last generation: :func:`morphogen.search.elitemap.elite_map`, the
   elites re-evaluated in batches of the population size, one tile per filled cell, framed by
-  family.
+  family (grid cells over two descriptors; not for :mod:`morphogen.search.cvt` cells, whose
+  ``index.json`` lists the centroids in the unit cube instead of bins).
 
 Skaggs (seed 000, §6.1) kept only the best genomes; these files keep one good genome of every
 kind of pattern the search met, each one command away from being run again.
@@ -35,6 +36,7 @@ import numpy as np
 
 from morphogen.io import write_atomic, write_json
 from morphogen.search.archive import Archive
+from morphogen.search.cvt import CVTMapElites
 from morphogen.search.evaluate import Problem
 from morphogen.search.fitness import INVALID
 from morphogen.search.mapelites import MapElites, coverage, qd_score
@@ -48,8 +50,11 @@ ELITES = "elites"
 INDEX = "index.json"
 
 
-def cell_bins(strategy: MapElites, cell: int) -> list[int]:
-    """The bin of every descriptor of a flat cell index: ``b_i = (cell // B^i) mod B``."""
+def cell_bins(strategy: MapElites, cell: int) -> list[int] | None:
+    """The bin of every descriptor of a flat cell index: ``b_i = (cell // B^i) mod B`` (``None``
+    for CVT cells, which are not a grid)."""
+    if isinstance(strategy, CVTMapElites):
+        return None
     b = int(strategy.bins)
     return [(int(cell) // b**i) % b for i in range(len(strategy.descriptors))]
 
@@ -98,6 +103,8 @@ def write_elites(directory: Path, problem: Problem, strategy: MapElites, state: 
         write_json(out / rec["run_file"], data)
     grid = {"descriptors": list(strategy.descriptors), "bins": int(strategy.bins),
             "ranges": [list(r) for r in strategy.ranges]}
+    if isinstance(strategy, CVTMapElites):
+        grid.update(bins=None, centroids=strategy.points.tolist())
     write_json(out / ELITES / INDEX, {"run": run_id, "grid": grid, "cells": int(
         strategy.cell_count), "qd_offset": QD_OFFSET, "elites": records})
     return records
@@ -167,11 +174,13 @@ def chunked(evaluate: Evaluate, size: int) -> Evaluate:
 
 def write_elite_map(directory: Path, strategy: MapElites, state: State, evaluate: Evaluate,
                     key: Any, cmap: str = "viridis") -> dict[int, str]:
-    """``elites.png`` (two descriptors only); returns the family of every filled cell."""
+    """``elites.png`` (grid cells over two descriptors only); returns the family of every
+    filled cell."""
     from morphogen.render import write_png
     from morphogen.search.elitemap import elite_map
 
-    if len(strategy.descriptors) != 2 or not np.isfinite(np.asarray(state.inner.fitness)).any():
+    if (len(strategy.descriptors) != 2 or isinstance(strategy, CVTMapElites)
+            or not np.isfinite(np.asarray(state.inner.fitness)).any()):
         return {}
     image, families = elite_map(strategy, state, chunked(evaluate, strategy.population_size),
                                 key, cmap=cmap)

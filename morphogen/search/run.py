@@ -28,6 +28,7 @@ from morphogen.progress import ProgressBar
 from morphogen.search import qd_report, report
 from morphogen.search.archive import CONFIG, Archive, Generation, new_run_id
 from morphogen.search.cmaes import CMAES
+from morphogen.search.cvt import CVTMapElites
 from morphogen.search.evaluate import Problem
 from morphogen.search.executors import Executor
 from morphogen.search.fitness import human_fitness
@@ -41,6 +42,7 @@ STRATEGIES: dict[str, type[Strategy]] = {
     "cmaes": CMAES,
     "gradient": GradientAscent,
     "map-elites": MapElites,
+    "cvt-map-elites": CVTMapElites,
 }
 """Strategy classes by command-line name; options are their dataclass fields. ``gradient``
 needs ``fitness="target"`` and a :class:`~morphogen.search.executors.GradientExecutor`."""
