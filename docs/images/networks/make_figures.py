@@ -1,0 +1,192 @@
+"""Run the two experiments of Yamamoto et al. at a reduced size and make docs/networks.md's figures.
+
+    python docs/images/networks/make_figures.py RUNS_DIR
+
+Experiment 1 (§4.1, rates of the Table-2 network) and Experiment 2 (§4.2, n = 3, m ≤ 12,
+networks evolved), :data:`RUNS` runs each (seeds 1, 2, …), at the reduced budget :data:`BUDGET`
+(Table 1 is 150 individuals, 100 generations, Δt = 0.1, 10 rounds from t = 2000). Run folders go
+to ``RUNS_DIR/exp1-seedS`` and ``RUNS_DIR/exp2-seedS``; finished runs are not run again and
+unfinished ones are resumed. Then the figures: best fitness per generation, one curve per run
+(the seed's figs. 3 and 5), the best pattern of each experiment and of the hand-made network as
+A/B/C heat maps with colour bars (figs. 1, 4, 6), and the best Experiment-2 network's reaction
+table next to its drawing.
+"""
+
+from __future__ import annotations
+
+import io
+import sys
+from pathlib import Path
+
+import jax
+import matplotlib
+import matplotlib.ticker
+
+matplotlib.use("Agg")
+import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from morphogen.search.networks.draw import draw_network  # noqa: E402
+from morphogen.search.networks.evolve import (  # noqa: E402
+    Evaluation,
+    completed,
+    evaluate,
+    initial_state,
+    load_state,
+    run,
+)
+from morphogen.search.networks.export import genome_network  # noqa: E402
+from morphogen.search.networks.genome import (  # noqa: E402
+    Genome,
+    NetworkSpec,
+    describe,
+    make_genome,
+    stack,
+    table2_genome,
+    table2_spec,
+)
+from morphogen.search.networks.operators import Operators  # noqa: E402
+
+HERE = Path(__file__).parent
+RUNS = 5
+BUDGET = {"population": 20, "generations": 16}
+EVAL = Evaluation(size=24, dt=0.5, t_start=800.0, interval=200.0, rounds=2)
+
+
+def experiment(number: int) -> tuple[NetworkSpec, object, Operators]:
+    """Spec, template genome and operators of Experiment 1 (rates) or 2 (network)."""
+    if number == 1:
+        spec = table2_spec()
+        return spec, table2_genome(spec), Operators(mode="rates")
+    spec = NetworkSpec(("A", "B", "C"), 12, (0.005, 0.2, 0.0), fixed=(0, 1),
+                       fixed_rates=(0.0, 0.0))
+    return spec, make_genome(spec, [0.0] * spec.m_max), Operators(mode="network")
+
+
+def run_all(root: Path) -> None:
+    """Every run of both experiments that is not finished yet."""
+    for seed in range(1, RUNS + 1):
+        for number in (1, 2):
+            spec, template, ops = experiment(number)
+            out = root / f"exp{number}-seed{seed}"
+            done = completed(out)
+            if done >= BUDGET["generations"]:
+                continue
+            print(f"experiment {number}, seed {seed}", flush=True)
+            run(spec, template, out, ops=ops, ev=EVAL, seed=seed, resume=done > 0,
+                log=lambda s: print("  " + s, flush=True), **BUDGET)
+
+
+def finished(root: Path, number: int) -> list[Path]:
+    """The finished run folders of an experiment, by seed."""
+    return [root / f"exp{number}-seed{s}" for s in range(1, RUNS + 1)
+            if completed(root / f"exp{number}-seed{s}") >= BUDGET["generations"]]
+
+
+def fitness_figure(root: Path, number: int) -> None:
+    """Best fitness per generation, one curve per run (the seed's figs. 3 and 5)."""
+    fig = Figure(figsize=(5.6, 3.6), dpi=120)
+    ax = fig.add_subplot()
+    for folder in finished(root, number):
+        history = load_state(folder / "state.npz")[1]
+        gens = np.arange(1, len(history) + 1)
+        ax.plot(gens, history.max(axis=1), "o-", ms=3, label=folder.name.split("-")[1])
+    ax.axhline(EVAL.size ** 2, color="0.6", ls=":", lw=1)
+    ax.set_xlabel("generation")
+    ax.set_ylabel(f"best fitness (max {EVAL.size ** 2})")
+    what = "rates of the Table-2 network" if number == 1 else "networks, n = 3, m ≤ 12"
+    ax.set_title(f"Experiment {number}: {what}", fontsize=10)
+    ax.set_ylim(-20, EVAL.size ** 2 * 1.05)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=3, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(HERE / f"fitness_exp{number}.png")
+
+
+def best_genome(root: Path, number: int) -> tuple[Genome, float, str]:
+    """The fittest genome of the experiment's runs' last generations."""
+    best = None
+    for folder in finished(root, number):
+        pop, history, _, _ = load_state(folder / "state.npz")
+        i = int(np.argmax(history[-1]))
+        if best is None or history[-1][i] > best[1]:
+            best = (Genome(*(np.asarray(x)[i] for x in pop)), float(history[-1][i]),
+                    folder.name)
+    return best
+
+
+def pattern_figure(genome: Genome, spec: NetworkSpec, name: str, title: str) -> float:
+    """A/B/C heat maps with colour bars of ``genome``'s state at the last evaluation round
+    (figs. 1, 4, 6), from the shared initial state of key 0; returns its fitness there."""
+    u0 = initial_state(jax.random.key(0), spec, EVAL)
+    fitness, states = evaluate(stack([genome]), u0, spec, EVAL)
+    fig = Figure(figsize=(9.6, 3.2), dpi=120)
+    for i, species in enumerate(spec.species):
+        ax = fig.add_subplot(1, spec.n, i + 1)
+        field = states[0, i]
+        mid, half = float(field.mean()), float(np.ptp(field)) / 2
+        flat = half < 5e-4 * max(abs(mid), 1.0)  # show a uniform field as uniform
+        if flat:
+            half = 5e-4 * max(abs(mid), 1.0)
+        im = ax.imshow(field, cmap="viridis", interpolation="nearest", vmin=mid - half,
+                       vmax=mid + half)
+        bar = fig.colorbar(im, ax=ax, shrink=0.8)
+        bar.formatter = matplotlib.ticker.ScalarFormatter(useOffset=False)
+        bar.update_ticks()
+        ax.set_title(f"{species} (uniform, {mid:.4g})" if flat else species)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    t = EVAL.t_start + (EVAL.rounds - 1) * EVAL.interval
+    fig.suptitle(f"{title}: t = {t:g}, fitness {fitness[0]:.1f} of {EVAL.size ** 2}",
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(HERE / f"{name}.png")
+    return float(fitness[0])
+
+
+def network_figure(genome: Genome, spec: NetworkSpec, label: str) -> None:
+    """The best Experiment-2 network: its reaction table next to its Fig. 7-style drawing."""
+    rows = [(r["reaction"].replace("->", "→"), f"{r['k']:.2g}")
+            for r in describe(genome, spec) if r["k"] or not r["fixed"]]
+    net = genome_network(genome, spec, name=label)
+    keep = [j for j, r in enumerate(net.reaction_ids) if not r.startswith(("inflow_", "decay_"))]
+    png = draw_network(net, "png", reactions=keep or None, title="")
+    fig = Figure(figsize=(11.0, 5.2), dpi=120)
+    left = fig.add_axes((0.03, 0.05, 0.38, 0.85))
+    left.set_axis_off()
+    table = left.table(cellText=rows, colLabels=("reaction", "k"), loc="center",
+                       colWidths=(0.7, 0.25), cellLoc="left")
+    table.auto_set_font_size(False)
+    table.set_fontsize(10)
+    table.scale(1.0, 1.5)
+    right = fig.add_axes((0.44, 0.0, 0.56, 0.95))
+    right.imshow(matplotlib.image.imread(io.BytesIO(png), format="png"))
+    right.set_axis_off()
+    fig.suptitle(f"best network of Experiment 2 ({label}); static inflow/decay in the table "
+                 "only", fontsize=10)
+    fig.savefig(HERE / "network_exp2.png")
+
+
+def make_figures(root: Path) -> None:
+    for number in (1, 2):
+        fitness_figure(root, number)
+    spec = table2_spec()
+    hand = pattern_figure(table2_genome(spec), spec, "pattern_table2", "hand-made (Table 2)")
+    print(f"hand-made Table-2 network: fitness {hand:.2f}")
+    for number in (1, 2):
+        genome, fit, folder = best_genome(root, number)
+        spec = experiment(number)[0]
+        again = pattern_figure(genome, spec, f"pattern_exp{number}",
+                               f"Experiment {number}, best ({folder})")
+        print(f"experiment {number}: best {fit:.2f} in {folder} ({again:.2f} on key 0)")
+        for r in describe(genome, spec):
+            print(f"  {r['reaction']:<28} {r['k']:.2g}{'  (imposed)' if r['fixed'] else ''}")
+        if number == 2:
+            network_figure(genome, spec, folder)
+
+
+if __name__ == "__main__":
+    runs_dir = Path(sys.argv[1] if len(sys.argv) > 1 else "runs/networks-figures")
+    if "--plot-only" not in sys.argv:
+        run_all(runs_dir)
+    make_figures(runs_dir)
