@@ -48,3 +48,17 @@ def test_ray_batches_equal_the_local_evaluation_and_run(local_ray, tmp_path):
     _, _, spread = run(spec, g, tmp_path / "ray", evaluator=remote, **kw)
     np.testing.assert_allclose(spread, local, rtol=1e-5, atol=1e-4)
     assert local.shape == (2, 5)
+
+
+def test_cli_ray_run_records_the_local_history(local_ray, tmp_path):
+    from morphogen.cli.main import main
+
+    args = ["networks", "--mode", "rates", "--population", "4", "--size", "8", "--dt", "0.5",
+            "--t-start", "10", "--interval", "5", "--rounds", "2", "--generations", "1",
+            "--seed", "5", "--quiet", "--archive", str(tmp_path / "index.sqlite")]
+    assert main(args + ["--out", str(tmp_path / "local")]) == 0
+    assert main(args + ["--out", str(tmp_path / "ray"), "--executor", "ray",
+                        "--batches", "2"]) == 0
+    local = np.loadtxt(tmp_path / "local" / "history.csv", delimiter=",")
+    spread = np.loadtxt(tmp_path / "ray" / "history.csv", delimiter=",")
+    np.testing.assert_allclose(spread, local, rtol=1e-5, atol=1e-3)
