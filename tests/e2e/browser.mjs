@@ -393,6 +393,28 @@ SCENARIOS.layout = async (page) => {
   return { evolveDesktop, width, canvasWidth: canvas.width, stacked: controls.y + controls.height <= canvas.y + 1 };
 };
 
+// a MAP-Elites run (made by the test with the CLI) on the Runs page: map, plot, elites
+SCENARIOS.mapelites = async (page) => {
+  const runs = await (await page.request.get(new URL('api/runs', base).href)).json();
+  const run = runs.runs.find((r) => r.strategy === 'map-elites').id;
+  await page.goto(`${base}#runs`);
+  await page.click(`tr[data-run="${run}"]`);
+  await page.waitForSelector('#runs-elites img');
+  await page.waitForTimeout(800);
+  await page.screenshot({ path: join(out, 'runs-map-elites.png'), fullPage: true });
+  const shown = await page.evaluate(() => ({
+    heading: document.querySelector('#runs-elites h4').textContent,
+    images: [...document.querySelectorAll('#runs-elites img')].filter((i) => i.complete && i.naturalWidth > 0).length,
+    tiles: document.querySelectorAll('#runs-elites .tile').length,
+  }));
+  const detail = await (await page.request.get(new URL(`api/runs/${run}`, base).href)).json();
+  await page.click('#runs-elites .tile >> nth=0');
+  await page.waitForFunction(() => !document.getElementById('page-explore').hidden
+    && window.morphogenExplore?.frames >= 2, null, { timeout: 60000 });
+  const params = await page.evaluate(() => window.morphogenExplore.state.params);
+  return { ...shown, elites: detail.map_elites.elites.length, first: detail.map_elites.elites[0].params, params };
+};
+
 SCENARIOS.meshsize = async (page) => {
   const posts = [];
   page.on('request', (r) => { if (r.method() === 'POST' && r.url().endsWith('/api/mesh')) posts.push(r.url()); });

@@ -198,3 +198,24 @@ def test_mesh_page_has_a_detail_control_and_refuses_sizes_up_front(server):
     data = scenario(server, "meshsize")
     assert data["max"] == 106
     assert "at most 106" in data["error"] and data["posts"] == 0
+
+
+def test_runs_page_shows_a_map_elites_archive_and_opens_an_elite(server):
+    """A MAP-Elites run from the command line, in the server's archive: the Runs page shows its
+    elite map, coverage plot and one tile per elite; an elite opens in Explore."""
+    import urllib.request
+
+    from morphogen.cli.main import main
+
+    with urllib.request.urlopen(f"{server.rstrip('/')}/api/runs") as r:
+        archive = json.loads(r.read())["archive"]
+    assert main(["evolve", "gray-scott", "--size", "24", "--dt", "0.5", "--steps", "120",
+                 "--init", "skaggs", "--preset", "skaggs-table-3.1", "--population", "6",
+                 "--strategy", "map-elites", "--generations", "2", "--seed", "3", "--quiet",
+                 "--archive", archive, "--out", str(Path(archive).parent / "me-run")]) == 0
+    data = scenario(server, "mapelites")
+    assert data["images"] == 2 + data["elites"]  # map, plot, one picture per elite
+    assert data["tiles"] == data["elites"] >= 1
+    assert f"{data['elites']} of 64 cells" in data["heading"]
+    assert data["params"]["F"] == pytest.approx(data["first"]["F"])
+    assert data["params"]["k"] == pytest.approx(data["first"]["k"])
