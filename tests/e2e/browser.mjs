@@ -415,6 +415,30 @@ SCENARIOS.mapelites = async (page) => {
   return { ...shown, elites: detail.map_elites.elites.length, first: detail.map_elites.elites[0].params, params };
 };
 
+// a MAP-Elites run started on the Evolve page shows its elite map and elites when done
+SCENARIOS.evolvemap = async (page) => {
+  await page.goto(`${base}#evolve`);
+  await page.waitForFunction(() => Number(document.getElementById('ev-population')?.value) > 0);
+  await page.selectOption('#ev-fitness', 'dirichlet');
+  await page.selectOption('#ev-strategy', 'map-elites');
+  await page.fill('#ev-population', '4');
+  await page.fill('#ev-generations', '2');
+  await page.fill('#ev-size', '16');
+  await page.fill('#ev-steps', '60');
+  await page.click('#ev-start');
+  await page.waitForSelector('#ev-elites:not([hidden]) .tile', { timeout: 120000 });
+  await page.waitForTimeout(500);
+  await page.screenshot({ path: join(out, 'evolve-map-elites.png'), fullPage: true });
+  const tiles = await page.locator('#ev-elites .tile').count();
+  const run = await page.evaluate(() => window.morphogenEvolve.status.run);
+  await page.click('#ev-elites .tile >> nth=0');
+  await page.waitForFunction(() => !document.getElementById('page-explore').hidden
+    && window.morphogenExplore?.frames >= 2, null, { timeout: 60000 });
+  const params = await page.evaluate(() => window.morphogenExplore.state.params);
+  const detail = await (await page.request.get(new URL(`api/runs/${run}`, base).href)).json();
+  return { tiles, elites: detail.map_elites.elites.length, first: detail.map_elites.elites[0].params, params };
+};
+
 SCENARIOS.meshsize = async (page) => {
   const posts = [];
   page.on('request', (r) => { if (r.method() === 'POST' && r.url().endsWith('/api/mesh')) posts.push(r.url()); });

@@ -219,3 +219,9 @@ def test_runs_page_shows_a_map_elites_archive_and_opens_an_elite(server):
     assert f"{data['elites']} of 64 cells" in data["heading"]
     assert data["params"]["F"] == pytest.approx(data["first"]["F"])
     assert data["params"]["k"] == pytest.approx(data["first"]["k"])
+
+
+def test_evolve_page_runs_map_elites_and_shows_its_elites(server):
+    data = scenario(server, "evolvemap")
+    assert data["tiles"] == data["elites"] >= 1
+    assert data["params"]["F"] == pytest.approx(data["first"]["F"])

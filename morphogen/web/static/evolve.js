@@ -36,12 +36,14 @@ export class Evolve {
       bar: el('progress', { id: 'ev-progress', max: 1, value: 0, hidden: '' }),
       message: el('p', { id: 'ev-message', class: 'muted' }),
       grid: el('div', { id: 'ev-grid', class: 'grid-pop' }),
+      elites: el('div', { id: 'ev-elites', hidden: '' }),
       log: el('pre', { id: 'ev-log', class: 'mono muted' }),
     };
     const u = this.ui;
     fillSelect(u.model, this.app.info.models.map((m) => m.name), 'gray-scott');
     fillSelect(u.fitness, [['user', 'choose favourites (Skaggs eq. 3.9)'], ['dirichlet', 'automatic: modified Dirichlet energy']], 'user');
-    fillSelect(u.strategy, [['ga', 'genetic algorithm'], ['cmaes', 'CMA-ES']], 'ga');
+    fillSelect(u.strategy, [['ga', 'genetic algorithm'], ['cmaes', 'CMA-ES'],
+      ['map-elites', 'MAP-Elites: one elite per kind of pattern'], ['cvt-map-elites', 'MAP-Elites, CVT cells']], 'ga');
     const row = (label, input) => el('label', {}, label, input);
     const stacked = (label, input) => el('label', { class: 'stack' }, label, input);
     c.append(
@@ -54,7 +56,7 @@ export class Evolve {
     );
     s.append(
       el('div', { class: 'toolbar' }, u.next, el('span', { class: 'muted small', text: 'Click tiles to choose favourites.' })),
-      u.error, u.bar, u.message, u.grid, u.log,
+      u.error, u.bar, u.message, u.grid, u.elites, u.log,
     );
     u.model.addEventListener('change', () => this.setup());
     u.start.addEventListener('click', () => this.start());
@@ -134,6 +136,7 @@ export class Evolve {
       this.status = await api('/api/evolve', { method: 'POST', body });
       sessionStorage.setItem(RUN_KEY, this.status.run);
       u.grid.replaceChildren();
+      u.elites.hidden = true;
       this.shownGen = 0;
       this.poll();
     } catch (err) { showError(u.error, err.message); }
@@ -161,7 +164,7 @@ export class Evolve {
     u.stop.hidden = !active;
     u.bar.hidden = st.state !== 'running';
     u.bar.value = (st.gen - 1 + st.progress) / st.total;
-    u.message.textContent = `run ${st.run} · ${st.state} · generation ${st.gen} of ${st.total}`
+    u.message.textContent = `run ${st.run} · ${st.state} · generation ${Math.min(st.gen, st.total)} of ${st.total}`
       + (st.message ? ` · ${st.message}` : '');
     u.log.textContent = st.log.join('\n');
     if (st.error) showError(u.error, st.error);
@@ -180,7 +183,34 @@ export class Evolve {
         })), false);
       }
     }
+    if (st.state === 'done' && this.elitesShown !== st.run) {
+      this.elitesShown = st.run;
+      await this.showElites(st.run);
+    }
     u.next.disabled = !(st.state === 'choose' && this.picked.size > 0);
+  }
+
+  // a finished MAP-Elites run: its elite map, and every elite (family, fitness) opening in Explore
+  async showElites(run) {
+    const d = await api(`/api/runs/${run}`);
+    const me = d.map_elites;
+    const box = this.ui.elites;
+    box.hidden = !me;
+    if (!me) return;
+    const tiles = el('div', { class: 'grid-pop' });
+    tiles.style.gridTemplateColumns = 'repeat(auto-fill, minmax(110px, 1fr))';
+    tiles.append(...me.elites.map((e) => {
+      const tile = el('button', { type: 'button', class: 'tile', title: 'open in Explore' },
+        el('img', { src: e.image, alt: `elite of cell ${e.cell}` }),
+        el('span', { class: 'cap', text: `${e.family ?? ''} f=${fmt(e.fitness ?? NaN)}` }));
+      tile.addEventListener('click', () => this.app.openInExplore({ ...d.explore, params: e.params }));
+      return tile;
+    }));
+    box.replaceChildren(...[
+      el('h4', { text: `MAP-Elites archive: ${me.elites.length} of ${me.cells} cells` }),
+      me.map ? el('img', { src: me.map, alt: 'elite map', class: 'sheet' }) : null,
+      tiles,
+    ].filter((node) => node != null));
   }
 
   showTiles(items, choosing) {
