@@ -1,7 +1,6 @@
 """Network populations split over Ray workers (a local Ray on loopback) give the in-process
 fitness, and a run with them the same history."""
 
-import os
 
 import jax
 import numpy as np
@@ -15,15 +14,6 @@ ray = pytest.importorskip("ray", reason="the ray package is not installed (pip i
 pytestmark = pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
 
 EV = Evaluation(size=8, dt=0.5, t_start=10.0, interval=5.0, rounds=2)
-
-
-@pytest.fixture(scope="module")
-def local_ray():
-    os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
-    ray.init(num_cpus=2, include_dashboard=False, _node_ip_address="127.0.0.1",
-             log_to_driver=False, configure_logging=False)
-    yield
-    ray.shutdown()
 
 
 def test_ray_batches_equal_the_local_evaluation_and_run(local_ray, tmp_path):

@@ -1,7 +1,6 @@
 """The Ray executor against a local Ray started on loopback: a generation split into batches
 over workers gives exactly the in-process result."""
 
-import os
 
 import jax
 import numpy as np
@@ -19,15 +18,6 @@ pytestmark = pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
 
 PROBLEM = Problem(model="gray-scott", genes=tuple(preset_genes("gray-scott")),
                   preset="skaggs-table-3.1", size=(24, 24), dt=0.5, steps=120, init="skaggs")
-
-
-@pytest.fixture(scope="module")
-def local_ray():
-    os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
-    ray.init(num_cpus=2, include_dashboard=False, _node_ip_address="127.0.0.1",
-             log_to_driver=False, configure_logging=False)
-    yield
-    ray.shutdown()
 
 
 def test_ray_batches_equal_the_local_evaluation_and_run(local_ray, tmp_path):
