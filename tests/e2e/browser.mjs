@@ -409,8 +409,9 @@ SCENARIOS.mapelites = async (page) => {
   }));
   const detail = await (await page.request.get(new URL(`api/runs/${run}`, base).href)).json();
   await page.click('#runs-elites .tile >> nth=0');
-  await page.waitForFunction(() => !document.getElementById('page-explore').hidden
-    && window.morphogenExplore?.frames >= 2, null, { timeout: 60000 });
+  await page.waitForFunction((f) => !document.getElementById('page-explore').hidden
+    && window.morphogenExplore?.state?.params?.F === f && window.morphogenExplore.frames >= 2,
+  detail.map_elites.elites[0].params.F, { timeout: 60000 });
   const params = await page.evaluate(() => window.morphogenExplore.state.params);
   return { ...shown, elites: detail.map_elites.elites.length, first: detail.map_elites.elites[0].params, params };
 };
@@ -431,11 +432,12 @@ SCENARIOS.evolvemap = async (page) => {
   await page.screenshot({ path: join(out, 'evolve-map-elites.png'), fullPage: true });
   const tiles = await page.locator('#ev-elites .tile').count();
   const run = await page.evaluate(() => window.morphogenEvolve.status.run);
-  await page.click('#ev-elites .tile >> nth=0');
-  await page.waitForFunction(() => !document.getElementById('page-explore').hidden
-    && window.morphogenExplore?.frames >= 2, null, { timeout: 60000 });
-  const params = await page.evaluate(() => window.morphogenExplore.state.params);
   const detail = await (await page.request.get(new URL(`api/runs/${run}`, base).href)).json();
+  await page.click('#ev-elites .tile >> nth=0');
+  await page.waitForFunction((f) => !document.getElementById('page-explore').hidden
+    && window.morphogenExplore?.state?.params?.F === f && window.morphogenExplore.frames >= 2,
+  detail.map_elites.elites[0].params.F, { timeout: 60000 });
+  const params = await page.evaluate(() => window.morphogenExplore.state.params);
   return { tiles, elites: detail.map_elites.elites.length, first: detail.map_elites.elites[0].params, params };
 };
 

@@ -43,7 +43,7 @@ export class Evolve {
     fillSelect(u.model, this.app.info.models.map((m) => m.name), 'gray-scott');
     fillSelect(u.fitness, [['user', 'choose favourites (Skaggs eq. 3.9)'], ['dirichlet', 'automatic: modified Dirichlet energy']], 'user');
     fillSelect(u.strategy, [['ga', 'genetic algorithm'], ['cmaes', 'CMA-ES'],
-      ['map-elites', 'MAP-Elites: one elite per kind of pattern'], ['cvt-map-elites', 'MAP-Elites, CVT cells']], 'ga');
+      ['map-elites', 'MAP-Elites'], ['cvt-map-elites', 'MAP-Elites (CVT)']], 'ga');
     const row = (label, input) => el('label', {}, label, input);
     const stacked = (label, input) => el('label', { class: 'stack' }, label, input);
     c.append(
