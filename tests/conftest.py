@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 
@@ -16,3 +18,20 @@ def local_ray():
              log_to_driver=False, configure_logging=False)
     yield
     ray.shutdown()
+
+
+@pytest.fixture
+def quality_diversity_run() -> Callable[..., None]:
+    """``run(archive, out, generations, seed, strategy="map-elites")``: a small Gray-Scott
+    MAP-Elites search from the command line (Skaggs table 3.1, 24², 6 per generation), recorded
+    in ``archive`` with its run folder ``out``."""
+    from morphogen.cli.main import main
+
+    def run(archive: str | Path, out: str | Path, generations: int, seed: int,
+            strategy: str = "map-elites") -> None:
+        assert main(["evolve", "gray-scott", "--size", "24", "--dt", "0.5", "--steps", "120",
+                     "--init", "skaggs", "--preset", "skaggs-table-3.1", "--population", "6",
+                     "--strategy", strategy, "--generations", str(generations), "--seed",
+                     str(seed), "--quiet", "--archive", str(archive), "--out", str(out)]) == 0
+
+    return run

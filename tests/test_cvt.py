@@ -49,16 +49,12 @@ def test_cells_are_nearest_centroids_and_the_archive_keeps_its_invariant():
         CVTMapElites(population_size=4, centroids=20, samples=10)
 
 
-def test_evolve_cvt_map_elites_writes_its_elites(tmp_path):
+def test_evolve_cvt_map_elites_writes_its_elites(tmp_path, quality_diversity_run):
     import json
 
-    from morphogen.cli.main import main
 
     out = tmp_path / "run"
-    assert main(["evolve", "gray-scott", "--size", "24", "--dt", "0.5", "--steps", "120",
-                 "--init", "skaggs", "--preset", "skaggs-table-3.1", "--population", "6",
-                 "--strategy", "cvt-map-elites", "--generations", "2", "--seed", "1", "--quiet",
-                 "--archive", str(tmp_path / "index.sqlite"), "--out", str(out)]) == 0
+    quality_diversity_run(tmp_path / "index.sqlite", out, 2, 1, strategy="cvt-map-elites")
     index = json.loads((out / "elites" / "index.json").read_text())
     me = CVTMapElites(population_size=6)
     assert index["cells"] == 64 and np.allclose(index["grid"]["centroids"], me.points)

@@ -93,16 +93,12 @@ def test_map_elites_needs_fields_and_valid_settings():
         MapElites(population_size=4, descriptors=("euler",))
 
 
-def test_evolve_map_elites_end_to_end(tmp_path):
-    from morphogen.cli.main import main
+def test_evolve_map_elites_end_to_end(tmp_path, quality_diversity_run):
     from morphogen.search.archive import Archive
     from morphogen.search.strategy import state_from_arrays
 
     db = tmp_path / "index.sqlite"
-    assert main(["evolve", "gray-scott", "--size", "24", "--dt", "0.5", "--steps", "120",
-                 "--init", "skaggs", "--preset", "skaggs-table-3.1", "--population", "6",
-                 "--strategy", "map-elites", "--generations", "3", "--seed", "2", "--quiet",
-                 "--archive", str(db), "--out", str(tmp_path / "run")]) == 0
+    quality_diversity_run(db, tmp_path / "run", 3, 2)
     archive = Archive(db)
     run_id = archive.runs()[0]["id"]
     me = MapElites(population_size=6)

@@ -37,17 +37,14 @@ def test_chunked_evaluation_pads_and_keeps_order():
     assert metrics["fields"].shape == (7, 1, 3) and metrics["valid"].shape == (7,)
 
 
-def test_evolve_writes_replayable_elites_and_qd_curves(tmp_path):
+def test_evolve_writes_replayable_elites_and_qd_curves(tmp_path, quality_diversity_run):
     from morphogen.cli.main import main
     from morphogen.patterns.descriptors import describe
     from morphogen.search.archive import Archive
     from morphogen.search.strategy import state_from_arrays
 
     db, out = tmp_path / "index.sqlite", tmp_path / "run"
-    assert main(["evolve", "gray-scott", "--size", "24", "--dt", "0.5", "--steps", "120",
-                 "--init", "skaggs", "--preset", "skaggs-table-3.1", "--population", "6",
-                 "--strategy", "map-elites", "--generations", "3", "--seed", "2", "--quiet",
-                 "--archive", str(db), "--out", str(out)]) == 0
+    quality_diversity_run(db, out, 3, 2)
     archive = Archive(db)
     run_id = archive.runs()[0]["id"]
     genes = [Gene(g["name"], g["low"], g["high"], g["sigma"])

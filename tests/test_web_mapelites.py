@@ -11,14 +11,10 @@ from fastapi.testclient import TestClient
 from morphogen.web.app import create_app
 
 
-def test_runs_page_lists_the_elites_of_a_map_elites_run(tmp_path):
-    from morphogen.cli.main import main
+def test_runs_page_lists_the_elites_of_a_map_elites_run(tmp_path, quality_diversity_run):
 
     archive, out = tmp_path / "index.sqlite", tmp_path / "run"
-    assert main(["evolve", "gray-scott", "--size", "24", "--dt", "0.5", "--steps", "120",
-                 "--init", "skaggs", "--preset", "skaggs-table-3.1", "--population", "6",
-                 "--strategy", "map-elites", "--generations", "2", "--seed", "3", "--quiet",
-                 "--archive", str(archive), "--out", str(out)]) == 0
+    quality_diversity_run(archive, out, 2, 3)
     index = json.loads((out / "elites" / "index.json").read_text())
     with TestClient(create_app(archive=archive, allowed_hosts=["testserver"])) as client:
         run = client.get("/api/runs").json()["runs"][0]["id"]

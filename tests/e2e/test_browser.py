@@ -200,19 +200,14 @@ def test_mesh_page_has_a_detail_control_and_refuses_sizes_up_front(server):
     assert "at most 106" in data["error"] and data["posts"] == 0
 
 
-def test_runs_page_shows_a_map_elites_archive_and_opens_an_elite(server):
+def test_runs_page_shows_a_map_elites_archive_and_opens_an_elite(server, quality_diversity_run):
     """A MAP-Elites run from the command line, in the server's archive: the Runs page shows its
     elite map, coverage plot and one tile per elite; an elite opens in Explore."""
     import urllib.request
 
-    from morphogen.cli.main import main
-
     with urllib.request.urlopen(f"{server.rstrip('/')}/api/runs") as r:
         archive = json.loads(r.read())["archive"]
-    assert main(["evolve", "gray-scott", "--size", "24", "--dt", "0.5", "--steps", "120",
-                 "--init", "skaggs", "--preset", "skaggs-table-3.1", "--population", "6",
-                 "--strategy", "map-elites", "--generations", "2", "--seed", "3", "--quiet",
-                 "--archive", archive, "--out", str(Path(archive).parent / "me-run")]) == 0
+    quality_diversity_run(archive, Path(archive).parent / "me-run", 2, 3)
     data = scenario(server, "mapelites")
     assert data["images"] == 2 + data["elites"]  # map, plot, one picture per elite
     assert data["tiles"] == data["elites"] >= 1
