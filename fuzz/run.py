@@ -19,18 +19,28 @@ from dataclasses import dataclass
 from pathlib import Path
 
 _RUNS = re.compile(r"^#(\d+)\s", re.MULTILINE)
-TARGETS = ("equations", "ply")
+TARGETS = ("equations", "ply", "network")
 """The targets of :mod:`fuzz.targets` (kept here so this runner stays uninstrumented)."""
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
 
 def seed_corpus(target: str, folder: Path) -> Path:
-    """Write valid starting inputs for ``target`` into ``folder``: the example model files, or
-    a small mesh saved as ASCII and binary PLY."""
+    """Write valid starting inputs for ``target`` into ``folder``: the example model files, a
+    small mesh saved as ASCII and binary PLY, or the example Antimony networks with the library
+    network as SBML and Antimony."""
     folder.mkdir(parents=True, exist_ok=True)
     if target == "equations":
         for toml in sorted(EXAMPLES.glob("*.toml")):
             (folder / toml.name).write_bytes(toml.read_bytes())
+    elif target == "network":
+        from morphogen.models.network import yamamoto_network
+        from morphogen.models.sbml import to_antimony, to_sbml
+
+        for ant in sorted((EXAMPLES / "networks").glob("*.ant")):
+            (folder / ant.name).write_bytes(ant.read_bytes())
+        net = yamamoto_network()
+        (folder / "yamamoto.xml").write_text(to_sbml(net), encoding="utf-8")
+        (folder / "yamamoto.ant").write_text(to_antimony(net), encoding="utf-8")
     else:
         from morphogen.domains.mesh import Mesh
         from morphogen.mesh_io import save_ply

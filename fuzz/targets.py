@@ -22,6 +22,7 @@ with atheris.instrument_imports(include=["morphogen"]):
     from morphogen.errors import MorphogenError
     from morphogen.mesh_io import load_mesh
     from morphogen.models.equations import parse_model
+    from morphogen.models.sbml import load_network_file
 
 _SCRATCH = Path(tempfile.mkdtemp(prefix="morphogen-fuzz-", dir="/dev/shm" if
                                  os.path.isdir("/dev/shm") else None))
@@ -46,7 +47,22 @@ def ply(data: bytes) -> None:
         pass
 
 
-TARGETS: dict[str, Callable[[bytes], None]] = {"equations": equations, "ply": ply}
+def network(data: bytes) -> None:
+    """Antimony or SBML bytes (SBML when they start with ``<``, after blanks), written to a
+    scratch ``.xml``/``.ant`` file, through ``load_network_file`` (libAntimony, libSBML, the
+    mass-action check, the network model) and back through ``parse_model`` of the model file a
+    run records for it, so whatever loads also replays."""
+    path = _SCRATCH / ("input.xml" if data.lstrip()[:1] == b"<" else "input.ant")
+    path.write_bytes(data)
+    try:
+        model = load_network_file(path)
+        parse_model(model.source, name="fuzz")
+    except MorphogenError:
+        pass
+
+
+TARGETS: dict[str, Callable[[bytes], None]] = {"equations": equations, "ply": ply,
+                                               "network": network}
 
 
 def main(argv: list[str]) -> None:

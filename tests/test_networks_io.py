@@ -294,3 +294,38 @@ def test_reaction_network_rejects_inconsistent_data():
     with pytest.raises(MorphogenError, match="two values"):
         ReactionNetwork("n", ("a",), np.ones((1, 2), int), np.zeros((1, 2), int), ("r1", "r2"),
                         ("k", "k"), (1.0, 2.0), (0.0,))
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ('species="v" stoichiometry="1"', 'species="v" stoichiometry="INF"', "stoichiometry inf"),
+    ('species="v" stoichiometry="1"', 'species="v" stoichiometry="NaN"', "stoichiometry nan"),
+    ('species="u" stoichiometry="2"', 'species="u" stoichiometry="1e30"', "from 0 to 100"),
+    ("<ci>u</ci><ci>u</ci>", "<apply><power/><ci>u</ci><cn>1e30</cn></apply>",
+     "not mass action"),
+    ('value="0.3"', 'value="INF"', "rate constant kf is inf"),
+    ('value="0.3"', 'value="NaN"', "rate constant kf is nan"),
+    ('initialConcentration="2"', 'initialConcentration="NaN"', "initial value of u is nan"),
+    ('<parameter id="kf"', '<parameter id="D_v" value="-1" constant="true"/><parameter id="kf"',
+     "D_v is -1; give it a finite number >= 0"),
+])
+def test_absurd_numbers_in_sbml_give_one_line_errors(old, new, message):
+    """Values the fuzzer's mutations reach: each once crashed the reader with OverflowError,
+    ValueError or was accepted as an infinite rate."""
+    with pytest.raises(MorphogenError, match=message) as exc:
+        read_sbml(SBML.replace(old, new))
+    assert "\n" not in str(exc.value)
+
+
+def test_deeply_nested_rate_law_is_read_without_recursion():
+    nested = "<apply><times/>" * 3000 + "<ci>kf</ci>" + "</apply>" * 3000
+    net = read_sbml(SBML.replace("<ci>kf</ci>", nested))
+    assert net.rates == (0.3, 0.7) and net.educts.tolist() == [[2, 0], [0, 1]]
+
+
+@pytest.mark.parametrize("char", ["\u00c4", "\u065c"])
+def test_antimony_error_about_a_non_ascii_character_is_one_line(char):
+    # libAntimony quotes the first byte of the character alone, which is not UTF-8: the binding
+    # raised UnicodeDecodeError (found by fuzzing)
+    with pytest.raises(MorphogenError, match="line 2: .*unknown character") as exc:
+        read_antimony(f"model m\n  J1: {char} -> B; k*{char}\nend")
+    assert "\n" not in str(exc.value)

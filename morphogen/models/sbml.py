@@ -21,6 +21,7 @@ way (SBML written with libSBML, Antimony produced from it by libAntimony).
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import replace
 from pathlib import Path
@@ -36,6 +37,9 @@ ANTIMONY_SUFFIXES = (".ant", ".antimony")
 SBML_SUFFIXES = (".xml", ".sbml")
 SUFFIXES = ANTIMONY_SUFFIXES + SBML_SUFFIXES
 """File endings :func:`morphogen.models.equations.load_model` reads as networks."""
+MAX_STOICHIOMETRY = 100
+"""Largest stoichiometric number or rate-law power read (larger ones are refused as typos: a
+mass-action term ``s^100`` already under- or overflows float32 for any ``s`` away from 1)."""
 
 
 def load_network_file(path: str | os.PathLike) -> Model:
@@ -63,9 +67,10 @@ def read_antimony(text: str, where: str = "Antimony text") -> ReactionNetwork:
 
     antimony.clearPreviousLoads()
     if antimony.loadAntimonyString(text.removeprefix("\ufeff")) < 0:
-        raise MorphogenError(f"{where}: {_brief(antimony.getLastError()) or 'not Antimony'}")
-    module = antimony.getMainModuleName()
-    sbml = antimony.getSBMLString(module)
+        message = _brief(_antimony_text(antimony.getLastError) or "")
+        raise MorphogenError(f"{where}: {message or 'not Antimony'}")
+    module = _antimony_text(antimony.getMainModuleName)
+    sbml = _antimony_text(antimony.getSBMLString, module)
     antimony.clearPreviousLoads()
     return read_sbml(sbml, where=where, name=module)
 
@@ -149,20 +154,28 @@ class _Reader:
         value = ref.getStoichiometry() if ref.isSetStoichiometry() else 1.0
         if ref.isSetStoichiometryMath():
             raise self.fail(f"reaction {rid}: stoichiometry given by a formula; use integers")
-        if value != int(value) or value < 0 or value != value:
+        if not _whole(value, 0):
             raise self.fail(f"reaction {rid}: stoichiometry {value:g} of {ref.getSpecies()} is "
-                            "not a non-negative integer")
+                            f"not an integer from 0 to {MAX_STOICHIOMETRY}")
         return int(value)
+
+    def _finite(self, what: str, value: float, low: float = -math.inf) -> float:
+        if not math.isfinite(value) or value < low:
+            bound = "a finite number" if low == -math.inf else f"a finite number >= {low:g}"
+            raise self.fail(f"{what} is {value:g}; give it {bound}")
+        return float(value)
 
     def _value(self, name: str, default: float) -> float:
         p = self.params.get(name)
-        return float(p.getValue()) if p is not None and p.isSetValue() else default
+        if p is None or not p.isSetValue():
+            return default
+        return self._finite(f"diffusion coefficient {name}", p.getValue(), low=0.0)
 
     def _initial(self, s) -> float | None:
-        if s.isSetInitialConcentration():
-            return float(s.getInitialConcentration())
-        if s.isSetInitialAmount():
-            return float(s.getInitialAmount())
+        for is_set, get in ((s.isSetInitialConcentration, s.getInitialConcentration),
+                            (s.isSetInitialAmount, s.getInitialAmount)):
+            if is_set():
+                return self._finite(f"initial value of {s.getId()}", get())
         return None
 
     def _mass_action(self, rx, educts: np.ndarray) -> tuple[str, float]:
@@ -202,32 +215,44 @@ class _Reader:
             raise refuse
         k = constants[0]
         if isinstance(k, float):
-            return f"k_{rid}", k
+            return f"k_{rid}", self._finite(f"reaction {rid}: rate constant", k)
         p = local.get(k) or self.params[k]
         if k in local and k in self.params:
             k = f"{rid}_{k}"
-        return k, float(p.getValue())
+        return k, self._finite(f"reaction {rid}: rate constant {k}", p.getValue())
 
 
-def _factors(node, refuse: MorphogenError) -> list:
-    """``[(leaf, exponent)]`` of a product of names, numbers and integer powers of them."""
+def _whole(value: float, low: int) -> bool:
+    """Whether ``value`` is an integer from ``low`` to :data:`MAX_STOICHIOMETRY`."""
+    return math.isfinite(value) and value == int(value) and low <= value <= MAX_STOICHIOMETRY
+
+
+def _factors(root, refuse: MorphogenError) -> list:
+    """``[(leaf, exponent)]`` of a product of names, numbers and integer powers of them
+    (walked with a stack, so a deeply nested law is refused rather than overflowing Python's)."""
     import libsbml
 
-    kind = node.getType()
-    if kind == libsbml.AST_TIMES:
-        out = []
-        for i in range(node.getNumChildren()):
-            out += _factors(node.getChild(i), refuse)
-        return out
-    if kind in (libsbml.AST_POWER, libsbml.AST_FUNCTION_POWER) and node.getNumChildren() == 2:
-        base, power = node.getChild(0), node.getChild(1)
-        if not power.isNumber() or power.getValue() != int(power.getValue()) \
-                or power.getValue() < 1 or base.getType() == libsbml.AST_TIMES:
+    out, stack = [], [(root, 1)]
+    while stack:
+        node, exponent = stack.pop()
+        kind = node.getType()
+        if kind == libsbml.AST_TIMES:
+            stack += [(node.getChild(i), exponent) for i in range(node.getNumChildren())]
+        elif kind in (libsbml.AST_POWER, libsbml.AST_FUNCTION_POWER) \
+                and node.getNumChildren() == 2:
+            base, power = node.getChild(0), node.getChild(1)
+            if not power.isNumber() or not _whole(power.getValue(), 1) \
+                    or base.getType() == libsbml.AST_TIMES:
+                raise refuse
+            exponent *= int(power.getValue())
+            if exponent > MAX_STOICHIOMETRY:
+                raise refuse
+            stack.append((base, exponent))
+        elif node.isNumber() or kind == libsbml.AST_NAME:
+            out.append((node, exponent))
+        else:
             raise refuse
-        return [(leaf, e * int(power.getValue())) for leaf, e in _factors(base, refuse)]
-    if node.isNumber() or kind == libsbml.AST_NAME:
-        return [(node, 1)]
-    raise refuse
+    return out
 
 
 def to_sbml(net: ReactionNetwork) -> str:
@@ -283,10 +308,19 @@ def to_antimony(net: ReactionNetwork) -> str:
     antimony.clearPreviousLoads()
     if antimony.loadSBMLString(to_sbml(net)) < 0:
         raise MorphogenError(f"network {net.name!r}: Antimony export failed: "
-                             + _brief(antimony.getLastError()))
+                             + _brief(_antimony_text(antimony.getLastError) or ""))
     text = antimony.getAntimonyString(None)
     antimony.clearPreviousLoads()
     return text
+
+
+def _antimony_text(call, *args) -> str | None:
+    """A libAntimony string result; its bytes may end inside a UTF-8 character (libAntimony cuts
+    error messages by bytes), which the binding's strict decoding would raise on."""
+    try:
+        return call(*args)
+    except UnicodeDecodeError as err:
+        return err.object.decode("utf-8", errors="replace")
 
 
 def _brief(message: str, limit: int = 240) -> str:
