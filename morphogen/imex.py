@@ -40,7 +40,7 @@ _D = 1.0 - 1.0 / (2.0 * _G)
 
 def require_spectral_grid(domain: Any, species: tuple[str, ...], scheme: str) -> None:
     """Raise a one-line error unless the domain is a grid with periodic / no-flux species."""
-    if not hasattr(domain, "laplacian") or not hasattr(domain, "_stencil"):
+    if not hasattr(domain, "laplacian") or not hasattr(domain, "symbol"):
         raise MorphogenError(
             f"scheme {scheme} solves diffusion in Fourier space on grids; use euler or rk4 "
             "on meshes")
@@ -95,13 +95,14 @@ class SpectralDiffusion:
 
 
 def _symbol(domain: Any, mirror: bool) -> np.ndarray:
-    """Stencil symbol ``lambda(k) / dx^2`` on the ``rfftn`` frequency grid of the (mirrored)
+    """Laplacian symbol ``lambda(k) / dx^2`` (the stencil's, or ``-|k|^2`` for the spectral
+    operator) on the ``rfftn`` frequency grid of the (mirrored)
     field: ``k = 2 pi m / N`` with ``N = n`` (periodic) or ``2 n`` (mirrored, i.e. ``pi m / n``)."""
     sizes = [2 * n if mirror else n for n in domain.shape]
     freqs = [2 * np.pi * np.fft.fftfreq(n) for n in sizes[:-1]]
     freqs.append(2 * np.pi * np.fft.rfftfreq(sizes[-1]))
     ks = np.meshgrid(*freqs, indexing="ij")
-    return (domain._stencil.symbol(*ks) / domain.dx**2).astype(np.float64)
+    return domain.symbol(*ks)
 
 
 def make_imex_advance(

@@ -52,7 +52,7 @@ class RunConfig:
     mesh: str | None = None
     dx: float = 1.0
     boundary: Any = "periodic"
-    stencil: int | None = None
+    stencil: int | str | None = None
     dt: float | None = None
     steps: int | None = None
     time: float | None = None

@@ -47,7 +47,7 @@ class RunSchema(BaseModel):
     mesh: StrictStr | None = None
     dx: Positive = 1.0
     boundary: StrictStr | dict[StrictStr, StrictStr] = "periodic"
-    stencil: Literal[5, 7, 9] | None = None
+    stencil: Literal[5, 7, 9, "spectral"] | None = None
     dt: Positive | None = None
     steps: Count | None = None
     time: Positive | None = None

@@ -28,7 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     run_length.add_argument("--steps", type=options.positive_int)
     run_length.add_argument("--time", type=options.positive_float)
     p.add_argument("--boundary", action="append", metavar="SPEC")
-    p.add_argument("--stencil", type=int, choices=(5, 7, 9))
+    p.add_argument("--stencil", choices=options.STENCILS,
+                   help="Laplacian: stencil points, or spectral (periodic grids)")
     p.add_argument("--init", help="initial condition kind (default: the model's)")
     p.add_argument("--seed", type=options.seed, default=0)
     p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE")
@@ -61,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     x, y = Axis.parse(args.x), Axis.parse(args.y)
     model.parameters({x.name: 0.0, y.name: 0.0})
     grid = Grid(tuple(options.size(args.size)), dx=args.dx,
-                boundary=options.boundary(args.boundary), stencil=args.stencil)
+                boundary=options.boundary(args.boundary), stencil=options.stencil(args.stencil))
     dt = args.dt or model.dt
     steps = args.steps or int(round((args.time or model.t_end) / dt))
     species = args.species or model.display_species

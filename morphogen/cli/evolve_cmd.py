@@ -50,7 +50,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     length.add_argument("--time", type=options.positive_float, help="simulated time T")
     p.add_argument("--boundary", action="append", metavar="SPEC",
                    help="periodic | neumann | dirichlet=VALUE, or SPECIES=SPEC")
-    p.add_argument("--stencil", type=int, choices=(5, 7, 9))
+    p.add_argument("--stencil", choices=options.STENCILS,
+                   help="Laplacian: stencil points, or spectral (periodic grids)")
     p.add_argument("--scheme", choices=("euler", "rk4"), default="euler")
     p.add_argument("--init", metavar="KIND|FILE",
                    help="initial condition (default: the model's; Skaggs used 'skaggs')")
@@ -87,7 +88,7 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     problem = Problem(
         model=args.model, genes=genes, model_source=model.source, preset=args.preset,
         params=options.assignments(args.param), size=tuple(options.size(size)), dx=args.dx,
-        boundary=options.boundary(args.boundary), stencil=args.stencil, dt=dt,
+        boundary=options.boundary(args.boundary), stencil=options.stencil(args.stencil), dt=dt,
         steps=max(1, int(steps)), scheme=args.scheme, clamp=options.clamp(args.clamp),
         seed=args.seed, init=args.init or model.init,
         init_options=options.assignments(args.init_opt, "--init-opt"), fitness=args.fitness,

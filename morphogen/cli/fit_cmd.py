@@ -51,7 +51,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dt", type=options.positive_float, help="time step (default: the model's)")
     p.add_argument("--steps", type=options.positive_int, default=400,
                    help="steps per simulation (short-ish keeps the loss landscape smooth)")
-    p.add_argument("--stencil", type=int, choices=(5, 9))
+    p.add_argument("--stencil", choices=options.STENCILS,
+                   help="Laplacian: stencil points, or spectral (periodic grids)")
     p.add_argument("--init", metavar="KIND|FILE", help="initial condition (default: the model's)")
     p.add_argument("--init-opt", action="append", metavar="NAME=VALUE")
     p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE",
@@ -77,7 +78,7 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     return Problem(
         model=args.model, genes=genes, model_source=model.source, preset=args.preset,
         params=options.assignments(args.param), size=tuple(options.size(args.size)),
-        stencil=args.stencil, dt=dt, steps=args.steps, seed=args.seed,
+        stencil=options.stencil(args.stencil), dt=dt, steps=args.steps, seed=args.seed,
         init=args.init or model.init,
         init_options=options.assignments(args.init_opt, "--init-opt"), fitness="target",
         target=str(Path(args.target).absolute()),

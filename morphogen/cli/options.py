@@ -61,6 +61,17 @@ def boundary(items: list[str] | None) -> Any:
     return per_species or whole
 
 
+STENCILS = ("5", "7", "9", "spectral")
+"""``--stencil`` choices: points of a finite-difference stencil, or the spectral Laplacian."""
+
+
+def stencil(text: str | None) -> int | str | None:
+    """``--stencil 9`` -> ``9``; ``spectral`` stays a word; absent -> ``None`` (the default)."""
+    if text is None or text == "spectral":
+        return text
+    return int(text)
+
+
 def clamp(text: str | None) -> Any:
     """``--clamp 0:5`` -> ``[0.0, 5.0]``; ``none`` -> ``None``; absent -> the model's own."""
     if text is None:

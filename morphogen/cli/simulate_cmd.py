@@ -35,7 +35,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     run_length.add_argument("--time", type=options.positive_float, help="simulated time")
     p.add_argument("--boundary", action="append", metavar="SPEC",
                    help="periodic | neumann | dirichlet=VALUE, or SPECIES=SPEC (repeatable)")
-    p.add_argument("--stencil", type=int, choices=(5, 7, 9), help="Laplacian stencil points")
+    p.add_argument("--stencil", choices=options.STENCILS,
+                   help="Laplacian: stencil points, or spectral (periodic grids)")
     p.add_argument("--scheme", choices=("euler", "rk4", "imex1", "imex", "etdrk4", "adaptive",
                                         "auto"), default=None,
                    help="time stepper (imex, imex1, etdrk4: stiff diffusion on grids; adaptive: "
@@ -94,7 +95,7 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
         "steps": args.steps,
         "time": args.time,
         "boundary": options.boundary(args.boundary) if args.boundary else None,
-        "stencil": args.stencil,
+        "stencil": options.stencil(args.stencil),
         "scheme": args.scheme,
         "rtol": args.rtol,
         "atol": args.atol,

@@ -9,6 +9,9 @@ Boundaries (per species):
 - ``periodic``: the grid is a torus.
 - ``neumann`` (no flux): cell-centred mirror ghost cells, so ``sum(u)`` is conserved exactly.
 - ``dirichlet`` with value ``g``: the outermost ring of cells is held at ``g``.
+
+The Laplacian is a finite-difference stencil (:mod:`morphogen.domains.stencils`) or, on
+periodic grids, the pseudo-spectral operator ``-|k|^2`` (:mod:`morphogen.domains.spectral`).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
+from morphogen.domains import spectral
 from morphogen.domains.stencils import STENCILS, Stencil
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Array, Tensor
@@ -69,14 +73,15 @@ class Grid:
         dx: cell spacing (the same on every axis).
         boundary: one spec for all species, or a mapping species -> spec (key ``"*"`` for the
             rest, periodic if absent).
-        stencil: Laplacian stencil: ``5`` or ``9`` points in 2D, ``7`` in 3D.
+        stencil: Laplacian stencil: ``5`` or ``9`` points in 2D, ``7`` in 3D, or
+            ``"spectral"`` (periodic boundaries only, 2D or 3D).
     """
 
     shape: tuple[int, ...]
     dx: float = 1.0
     boundary: Any = "periodic"
-    stencil: int | None = None
-    _stencil: Stencil = field(init=False, repr=False, compare=False)
+    stencil: int | str | None = None
+    _stencil: Stencil | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         shape = tuple(int(n) for n in self.shape)
@@ -87,19 +92,30 @@ class Grid:
             raise MorphogenError(f"every grid axis needs at least 3 cells, got {shape}")
         if not (np.isfinite(self.dx) and self.dx > 0):
             raise MorphogenError(f"dx must be a positive number, got {self.dx}")
-        points = self.stencil or (5 if len(shape) == 2 else 7)
+        stencil = parse_stencil(self.stencil)
+        object.__setattr__(self, "stencil", stencil)
+        if isinstance(self.boundary, Mapping):
+            kinds = {Boundary.parse(spec).kind for spec in self.boundary.values()}
+            if "*" not in self.boundary:
+                kinds.add("periodic")
+        else:
+            kinds = {Boundary.parse(self.boundary).kind}
+        if stencil == spectral.SPECTRAL:
+            if kinds != {"periodic"}:
+                bad = sorted(kinds - {"periodic"})[0]
+                raise MorphogenError(
+                    f"the spectral stencil needs periodic boundaries, got {bad}; use "
+                    f"--stencil {5 if len(shape) == 2 else 7} for {bad} boundaries")
+            object.__setattr__(self, "_stencil", None)
+            return
+        points = stencil or (5 if len(shape) == 2 else 7)
         key = (len(shape), int(points))
         if key not in STENCILS:
             ok = sorted(p for d, p in STENCILS if d == len(shape))
             raise MorphogenError(
-                f"no {points}-point stencil in {len(shape)}D; use one of {ok}"
+                f"no {points}-point stencil in {len(shape)}D; use one of {ok} or spectral"
             )
         object.__setattr__(self, "_stencil", STENCILS[key])
-        if isinstance(self.boundary, Mapping):
-            for spec in self.boundary.values():
-                Boundary.parse(spec)
-        else:
-            Boundary.parse(self.boundary)
 
     @property
     def ndim(self) -> int:
@@ -142,23 +158,41 @@ class Grid:
             out["z"] = np.zeros((1, 1), np.float32)
         return out
 
+    @property
+    def is_spectral(self) -> bool:
+        """Whether the Laplacian is the pseudo-spectral one."""
+        return self._stencil is None
+
     def spectral_radius(self) -> float:
         """Largest eigenvalue of ``-Laplacian`` (unit diffusion), for the stability limit."""
+        if self.is_spectral:
+            return spectral.spectral_radius(self.shape, self.dx)
         return self._stencil.spectral_radius / self.dx**2
+
+    def symbol(self, *k: np.ndarray) -> np.ndarray:
+        """Eigenvalue of the Laplacian on the Fourier mode with angular wavenumbers per cell
+        ``k`` (one array per axis, in ``[-pi, pi]``), in units of ``1 / dx^2``."""
+        op = spectral.symbol if self.is_spectral else self._stencil.symbol
+        return np.asarray(op(*k), np.float64) / self.dx**2
 
     def laplacian(self, f: Array, bc: Boundary) -> Array:
         """Discrete Laplacian of one field ``f`` (shape ``self.shape``)."""
+        if self.is_spectral:
+            return spectral.laplacian(f, self.dx)
         return self._stencil.apply(_pad(f, bc), self.dx)
 
     def diffuse(self, u: Array, coeffs: Sequence[Any], bcs: Sequence[Boundary]) -> Array:
         """``div(D_i grad u_i)`` for every species; ``u`` has shape ``(S, *shape)``.
 
         A coefficient is a scalar or field (isotropic, ``D * Laplacian``) or a :class:`Tensor`
-        (anisotropic, conservative face fluxes; 2D only).
+        (anisotropic, conservative face fluxes; 2D finite-difference grids only).
         """
         out = []
         for i, (d, bc) in enumerate(zip(coeffs, bcs, strict=True)):
             if isinstance(d, Tensor):
+                if self.is_spectral:
+                    raise MorphogenError("anisotropic diffusion uses finite-difference face "
+                                         "fluxes; use --stencil 5 instead of spectral")
                 out.append(self._tensor_divergence(u[i], d, bc))
             else:
                 out.append(d * self.laplacian(u[i], bc))
@@ -209,6 +243,19 @@ class Grid:
             jx = jx.at[:, 0].set(0.0).at[:, -1].set(0.0)
             jy = jy.at[0, :].set(0.0).at[-1, :].set(0.0)
         return (jx[:, 1:] - jx[:, :-1]) / h + (jy[1:, :] - jy[:-1, :]) / h
+
+
+def parse_stencil(value: Any) -> int | str | None:
+    """``None``, a number of points (``5``, ``"9"``) or ``"spectral"``, as given on the command
+    line or in a run file."""
+    if value is None or isinstance(value, int):
+        return value
+    text = str(value).strip().lower()
+    if text == spectral.SPECTRAL:
+        return spectral.SPECTRAL
+    if text.isdigit():
+        return int(text)
+    raise MorphogenError(f"unknown stencil {value!r}; use 5, 9 (2D), 7 (3D) or spectral")
 
 
 def _pad(f: Array, bc: Boundary) -> Array:

@@ -78,7 +78,7 @@ class Problem:
     size: tuple[int, ...] = (128, 128)
     dx: float = 1.0
     boundary: Any = "periodic"
-    stencil: int | None = None
+    stencil: int | str | None = None
     dt: float = 1.0
     steps: int = 1000
     scheme: str = "euler"
