@@ -46,6 +46,7 @@ def test_the_repository_flowers_are_found_with_their_sections() -> None:
     assert flowers["digitalis"] == "4.6"
     assert flowers["trichoglottis"] == "4.8"
     assert flowers["phalaenopsis-nankung"] == "4.9"
+    assert flowers["phalaenopsis-leopard"] == "4.10"
     sections = [tuple(map(int, s.split("."))) for s in flowers.values() if s]
     assert sections == sorted(sections)
 

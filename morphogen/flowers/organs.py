@@ -12,7 +12,7 @@ corolla (e.g. an :func:`~morphogen.flowers.shapes.urn`) is an organ too, placed 
 ``midline``, ...) are kept; a field that some organ lacks is 0 on that organ. Each vertex gets
 
 - ``organ``: the organ's index (in the order given), and one 0/1 set per organ kind
-  (``sepal``, ``petal``, ``lip``, ``corolla``);
+  (``sepal``, ``petal``, ``lip``, ``column``, ``corolla``);
 - ``r``: distance from the flower centre in the plane, divided by its maximum.
 
 These replace same-named fields of the organs (a corolla's ``r`` or ``petal``).
@@ -32,7 +32,7 @@ import numpy as np
 from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
 
-ORGAN_KINDS = ("sepal", "petal", "lip", "corolla")
+ORGAN_KINDS = ("sepal", "petal", "lip", "column", "corolla")
 
 
 @dataclass(frozen=True)
@@ -93,6 +93,7 @@ def orchid(
     petal_width: float = 1.0,
     sepal_width: float = 0.55,
     lip: float = 0.38,
+    column: float = 0.0,
 ) -> Mesh:
     """A Phalaenopsis-like orchid of ``size`` across (mesh units): a dorsal sepal up, two
     lateral sepals down-left and down-right, two broad rounded petals left and right in front
@@ -101,7 +102,9 @@ def orchid(
     Blades are :func:`~morphogen.flowers.shapes.petal` outlines: sepals ``0.5 size`` long and
     ``sepal_width * 0.5 size`` wide, petals ``0.45 size`` long and ``petal_width * 0.45 size``
     wide (broad, un-notched), the lip ``lip * size`` long. Organ order: dorsal sepal, lateral
-    sepals, petals, lip (``organ`` 0-5).
+    sepals, petals, lip (``organ`` 0-5). With ``column > 0`` a column (the fused stamens and
+    style, Ringham §4.10) ``column * size`` long is added last (``organ`` 6): a narrow, strongly
+    cupped blade from the centre over the lip, in front of every other organ.
     """
     from morphogen.flowers.shapes import petal
 
@@ -119,15 +122,26 @@ def orchid(
                  curl=-0.04, base_width=0.2)
     labellum = petal(lip * size, 0.7 * lip * size, edge=edge, notch=0.25, cup=0.25, curl=0.2,
                      base_width=0.3)
+    if not (np.isfinite(column) and 0 <= column <= 0.3):
+        raise MorphogenError(f"orchid: column must be from 0 to 0.3 (of the size), got {column}")
     gap = 0.04 * size
-    return assemble([
+    organs = [
         Organ(sepal, "sepal", 90.0, gap),
         Organ(sepal, "sepal", 215.0, gap),
         Organ(sepal, "sepal", 325.0, gap),
         Organ(side, "petal", 165.0, gap, 0.06 * size),
         Organ(side, "petal", 15.0, gap, 0.06 * size),
         Organ(labellum, "lip", 270.0, gap, 0.1 * size),
-    ], name="orchid")
+    ]
+    if column > 0:
+        length = column * size
+        if edge > 0.25 * length:
+            raise MorphogenError(f"orchid: edge {edge} is too coarse for a column of length "
+                                 f"{length:g}; use at most {0.25 * length:g}")
+        stem = petal(length, 0.45 * length, edge=edge, notch=0.0, cup=0.4, curl=0.1,
+                     base_width=0.6)
+        organs.append(Organ(stem, "column", 270.0, 0.0, 0.16 * size))
+    return assemble(organs, name="orchid")
 
 
 def urn_flower(
