@@ -36,7 +36,18 @@ def test_network_run_is_archived_listed_shown_and_replayable(tmp_path, capsys):
     args = ["networks", "--mode", "network", "--out", str(out), "--archive", str(archive_file),
             *ARGS]
     assert main(args + ["--generations", "1"]) == 0
-    assert main(args + ["--generations", "2", "--resume"]) == 0
+    # `morphogen evolve --resume` names the command that resumes a network run ...
+    assert main(["evolve", "--resume", str(out), "--archive", str(archive_file)]) == 2
+    err = capsys.readouterr().err
+    assert f"morphogen networks --out {out} --resume" in err and "damaged" not in err
+    # ... which needs only the folder: mode, population, grid, times, seed are the run's
+    assert main(["networks", "--out", str(out), "--resume", "--generations", "2",
+                 "--quiet"]) == 0
+    # and `morphogen networks --resume` on a parameter search names `morphogen evolve`
+    (tmp_path / "search").mkdir()
+    (tmp_path / "search" / "config.json").write_text('{"id": "ga-x", "problem": {}}')
+    assert main(["networks", "--out", str(tmp_path / "search"), "--resume"]) == 2
+    assert "morphogen evolve --resume" in capsys.readouterr().err
     capsys.readouterr()
 
     archive = Archive(archive_file, create=False)

@@ -121,7 +121,12 @@ def run(args: argparse.Namespace) -> int:
     options_for = ray_options if args.executor == "ray" else {}
     if args.resume:
         run_id, archive = resolve_run(args.resume, args.archive)
-        config = archive.run(run_id)["config"]
+        stored = archive.run(run_id)
+        config = stored["config"]
+        if isinstance(config, dict) and config.get("kind") == "networks":
+            from morphogen.search.networks.record import resume_hint
+
+            raise MorphogenError(resume_hint(run_id, stored["dir"]))
         try:
             problem = Problem.from_dict(config["problem"])
             gradient = STRATEGIES[config["strategy"]["name"]].needs_gradient

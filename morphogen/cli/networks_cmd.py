@@ -14,6 +14,11 @@ from morphogen.errors import MorphogenError
 from morphogen.io import ensure_writable_dir, write_atomic, write_json
 from morphogen.progress import ProgressBar
 
+DEFAULTS = {"mode": "rates", "population": 150, "generations": 100, "seed": 0, "size": 32,
+            "dt": 0.1, "t_start": 2000.0, "interval": 200.0, "rounds": 10, "m_max": 12,
+            "tournament": 2}
+"""Settings of a new run (Table 1); ``--resume`` takes the run's own instead."""
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -28,21 +33,23 @@ def register(sub: argparse._SubParsersAction) -> None:
         "DIR/best/best_1.json (replay with `morphogen simulate --config`); the run is recorded "
         "in the run archive (`morphogen runs`, `morphogen runs show DIR`). "
         "`morphogen networks export DIR|table2 --out FILE` writes a network as a model file, "
-        "Antimony, SBML, PNG or SVG (see `morphogen networks export --help`).",
+        "Antimony, SBML, PNG or SVG (see `morphogen networks export --help`). "
+        "`--out DIR --resume` continues a run with its own settings (add --generations N to "
+        "extend it); settings below default to Table 1 for a new run.",
     )
-    p.add_argument("--mode", choices=("rates", "network"), default="rates")
+    p.add_argument("--mode", choices=("rates", "network"), help="default: rates")
     p.add_argument("--out", metavar="DIR", help="run folder (required)")
     p.add_argument("--resume", action="store_true", help="continue the run saved in DIR")
-    p.add_argument("--population", type=int, default=150)
-    p.add_argument("--generations", type=int, default=100)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--size", type=int, default=32, help="grid side (cells)")
-    p.add_argument("--dt", type=float, default=0.1)
-    p.add_argument("--t-start", type=float, default=2000.0, help="first evaluation time")
-    p.add_argument("--interval", type=float, default=200.0, help="time between evaluations")
-    p.add_argument("--rounds", type=int, default=10, help="evaluation rounds")
-    p.add_argument("--m-max", type=int, default=12, help="reaction slots (network mode)")
-    p.add_argument("--tournament", type=int, default=2)
+    p.add_argument("--population", type=int, help="default: 150")
+    p.add_argument("--generations", type=int, help="default: 100 (on --resume, the run's)")
+    p.add_argument("--seed", type=int, help="default: 0")
+    p.add_argument("--size", type=int, help="grid side in cells (default: 32)")
+    p.add_argument("--dt", type=float, help="default: 0.1")
+    p.add_argument("--t-start", type=float, help="first evaluation time (default: 2000)")
+    p.add_argument("--interval", type=float, help="time between evaluations (default: 200)")
+    p.add_argument("--rounds", type=int, help="evaluation rounds (default: 10)")
+    p.add_argument("--m-max", type=int, help="reaction slots, network mode (default: 12)")
+    p.add_argument("--tournament", type=int, help="default: 2")
     p.add_argument("--archive", help="run archive (default $MORPHOGEN_ARCHIVE or "
                    "runs/index.sqlite); `morphogen runs` lists the run")
     p.add_argument("--executor", choices=("local", "ray"), default="local",
@@ -74,6 +81,13 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out is None:
         raise MorphogenError("morphogen networks needs --out DIR (the run folder)")
+    if args.executor != "ray" and (args.address or args.batches):
+        raise MorphogenError("--address and --batches need --executor ray")
+    out = ensure_writable_dir(args.out)
+    settings = record.saved_settings(out) if args.resume else DEFAULTS
+    for key, value in settings.items():
+        if getattr(args, key) is None:
+            setattr(args, key, value)
     if args.mode == "rates":
         spec = table2_spec()
         template = table2_genome(spec)
@@ -84,9 +98,6 @@ def run(args: argparse.Namespace) -> int:
     ops = Operators(mode=args.mode, tournament=args.tournament)
     ev = Evaluation(size=args.size, dt=args.dt, t_start=args.t_start, interval=args.interval,
                     rounds=args.rounds)
-    if args.executor != "ray" and (args.address or args.batches):
-        raise MorphogenError("--address and --batches need --executor ray")
-    out = ensure_writable_dir(args.out)
     if args.resume:
         run_id, archive = record.resume(out, args.archive, args.generations)
     elif (out / "state.npz").exists() or (out / "config.json").exists():

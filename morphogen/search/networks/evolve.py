@@ -176,7 +176,8 @@ def run(
             raise MorphogenError(f"nothing to resume in {out}: no state.npz")
         pop, history, done, saved = load_state(path)
         if saved != meta:
-            raise MorphogenError(f"{out} holds a run with other settings; resume it with those")
+            raise MorphogenError(f"{out} holds a run with other settings; resume it with "
+                                 "those (give only --out, --resume and --generations)")
     else:
         if path.exists():
             raise MorphogenError(f"{out} already holds a run; use --resume or another --out")

@@ -90,15 +90,54 @@ def start(out: Path, archive: Archive, settings: dict[str, Any]) -> str:
     return run_id
 
 
+def _config(out: Path) -> dict[str, Any]:
+    try:
+        config = json.loads((Path(out) / CONFIG).read_text())
+        kind = config.get("kind")
+    except (OSError, ValueError, AttributeError):
+        raise MorphogenError(f"{out} has no readable {CONFIG}; it was not recorded in a run "
+                             "archive (start a new run with another --out)") from None
+    if kind != KIND:
+        raise MorphogenError(f"{out} holds a parameter search (morphogen evolve), not a "
+                             f"network run; resume it with `morphogen evolve --resume {out}`")
+    return config
+
+
+def saved_settings(out: Path) -> dict[str, Any]:
+    """The command-line settings a run folder was started with (``morphogen networks`` names:
+    mode, population, seed, generations, size, dt, t_start, interval, rounds, m_max,
+    tournament), so ``--resume`` needs no more than ``--out``."""
+    config = _config(out)
+    try:
+        strategy, problem = config["strategy"], config["problem"]
+        ev = problem["ev"]
+        return {"mode": strategy["name"].removeprefix("net-"),
+                "population": int(strategy["population"]), "seed": int(config["seed"]),
+                "generations": int(config["generations"]), "size": int(ev["size"]),
+                "dt": float(ev["dt"]), "t_start": float(ev["t_start"]),
+                "interval": float(ev["interval"]), "rounds": int(ev["rounds"]),
+                "m_max": int(problem["spec"]["m_max"]),
+                "tournament": int(strategy["tournament"])}
+    except (KeyError, TypeError, ValueError, AttributeError):
+        raise MorphogenError(f"{Path(out) / CONFIG} is damaged; the run cannot be resumed"
+                             ) from None
+
+
+def resume_hint(run_id: str, directory: str) -> str:
+    """The one-line answer to ``morphogen evolve --resume`` given a network run."""
+    return (f"run {run_id} is a reaction-network run (morphogen networks), not a parameter "
+            f"search; resume it with `morphogen networks --out {directory} --resume`")
+
+
 def resume(out: Path, archive_path: str | None, generations: int) -> tuple[str, Archive]:
     """The run id and archive of the folder ``out``, its planned generations set to
     ``generations`` (``--resume`` may extend a run)."""
+    config = _config(out)
     try:
-        config = json.loads((Path(out) / CONFIG).read_text())
         run_id, path = config["id"], archive_path or config["archive"]
-    except (OSError, ValueError, KeyError, TypeError):
-        raise MorphogenError(f"{out} has no readable {CONFIG}; it was not recorded in a run "
-                             "archive (start a new run with another --out)") from None
+    except KeyError:
+        raise MorphogenError(f"{Path(out) / CONFIG} is damaged; the run cannot be resumed"
+                             ) from None
     archive = Archive(path, create=False)
     archive.run(run_id)
     if config.get("generations") != generations:
