@@ -21,6 +21,7 @@ from morphogen.errors import MorphogenError
 from morphogen.web import export
 from morphogen.web.limits import JSONBody, OptionalBody, integer, run_limited
 from morphogen.web.live import Frame, LiveSim
+from morphogen.web.recording import FORMATS
 
 router = APIRouter(prefix="/api/live")
 
@@ -52,6 +53,8 @@ async def _configure(request: Request, sim: LiveSim, body: dict[str, Any]) -> di
             preset=body.get("preset"),
             init=body.get("init"),
             seed=body.get("seed", 0),
+            height=body.get("height"),
+            scheme=body.get("scheme", "euler"),
         ),
         lim.request_timeout_s,
         "setting up the model",
@@ -101,10 +104,10 @@ async def params(request: Request, sid: str, body: JSONBody):
 
 @router.post("/{sid}/view")
 async def view(request: Request, sid: str, body: JSONBody):
-    """Species shown, steps per frame, colour map."""
+    """Species shown, steps per frame, colour map, colour range (``"auto"`` or ``[lo, hi]``)."""
     sim = _sim(request, sid)
     sim.set_view(species=body.get("species"), steps_per_frame=body.get("steps_per_frame"),
-                 cmap=body.get("cmap"))
+                 cmap=body.get("cmap"), value_range=body.get("range"))
     return sim.describe()
 
 
@@ -130,12 +133,51 @@ async def paint(request: Request, sid: str, body: JSONBody):
         if not isinstance(pt, list | tuple) or len(pt) != 2:
             raise MorphogenError("each paint point must be [x, y]")
 
+    stroke = bool(body.get("stroke", False))
+
     def work():
-        for x, y in points:
-            sim.paint(x, y, body.get("radius", 0.03), body.get("mode", "excite"))
+        for i, (x, y) in enumerate(points):
+            sim.paint(x, y, body.get("radius", 0.03), body.get("mode", "excite"),
+                      stroke=stroke and i == 0)
 
     await run_limited(work, request.app.state.limits.request_timeout_s, "painting")
-    return {"ok": True}
+    return {"ok": True, "undo": len(sim.undo_stack)}
+
+
+@router.post("/{sid}/undo")
+async def undo(request: Request, sid: str):
+    """Undo the last brush stroke (a paint request with ``stroke: true`` starts one)."""
+    left = _sim(request, sid).undo()
+    return {"ok": True, "undo": left}
+
+
+@router.get("/{sid}/probe")
+async def probe(request: Request, sid: str, x: float, y: float):
+    """Every species' value in the cell under ``(x, y)`` (fractions from the top left)."""
+    return _sim(request, sid).probe(x, y)
+
+
+@router.post("/{sid}/record")
+async def record(request: Request, sid: str, body: JSONBody):
+    """``{"on": true}`` starts recording the frames shown (forgetting earlier ones),
+    ``{"on": false}`` stops; the recording stays for download."""
+    sim = _sim(request, sid)
+    if body.get("on"):
+        sim.recorder.start()
+    else:
+        sim.recorder.stop()
+    return sim.recorder.describe()
+
+
+@router.get("/{sid}/recording")
+async def recording(request: Request, sid: str, format: str = "gif", fps: int = 20):
+    """The recorded frames as an animated GIF or an MP4 through the current colour map."""
+    sim = _sim(request, sid)
+    fps = integer(fps, "fps", 1, 60)
+    data = await run_limited(lambda: sim.recorder.encode(format, sim.cmap, fps),
+                             request.app.state.limits.job_timeout_s, "encoding the recording")
+    return Response(data, media_type=FORMATS[format],
+                    headers=_attachment(f"{sim.describe()['model']}.{format}"))
 
 
 @router.get("/{sid}/frame")

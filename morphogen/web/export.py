@@ -33,8 +33,9 @@ def run_config(sim: Any, steps: int | None = None) -> bytes:
     config: dict[str, Any] = {
         "model": d["model"],
         "params": d["params"],
-        "size": [d["size"], d["size"]],
+        "size": [d["height"], d["size"]],
         "boundary": d["boundary"],
+        "scheme": d["scheme"],
         "dt": d["dt"],
         "steps": n,
         "seed": d["seed"],

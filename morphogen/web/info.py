@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import numpy as np
 from fastapi import APIRouter, Request
 from fastapi.responses import Response
 
 from morphogen.errors import MorphogenError
-from morphogen.render.colour import parse_cmap
 from morphogen.web.catalog import describe, library_names, resolve_model
 from morphogen.web.limits import JSONBody
-from morphogen.web.live import INITIAL_KINDS, STEP_CHOICES
+from morphogen.web.live import INITIAL_KINDS, LIVE_SCHEMES, STEP_CHOICES
+from morphogen.web.recording import colour_table
 
 router = APIRouter(prefix="/api")
 
@@ -36,6 +35,7 @@ async def models():
         "colormaps": list(COLORMAPS),
         "init_kinds": list(INITIAL_KINDS),
         "step_choices": list(STEP_CHOICES),
+        "schemes": list(LIVE_SCHEMES),
     }
 
 
@@ -58,6 +58,4 @@ async def colormap(name: str = "viridis"):
     """A colour map as a 256 x 3 RGB lookup table (768 bytes)."""
     if len(name) > MAX_CMAP_CHARS:
         raise MorphogenError(f"colour map text is longer than {MAX_CMAP_CHARS} characters")
-    cmap = parse_cmap(name)
-    lut = np.rint(np.asarray(cmap(np.linspace(0.0, 1.0, 256)))[:, :3] * 255).astype(np.uint8)
-    return Response(lut.tobytes(), media_type="application/octet-stream")
+    return Response(colour_table(name).tobytes(), media_type="application/octet-stream")

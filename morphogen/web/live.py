@@ -1,8 +1,9 @@
 """The live simulation behind the Explore page: one per browser tab.
 
-A :class:`LiveSim` holds a state ``u`` of shape ``(S, n, n)`` on a periodic (or no-flux) grid
-and advances it by ``steps`` explicit steps per frame with the jitted
-:func:`morphogen.simulate.integrate`.
+A :class:`LiveSim` holds a state ``u`` of shape ``(S, h, w)`` on a periodic (or no-flux) grid
+and advances it by ``steps`` steps per frame of one of the per-step schemes of
+:mod:`morphogen.steppers` (:data:`LIVE_SCHEMES`: explicit Euler, RK4, IMEX, ETDRK4; see
+docs/schemes.md) with the jitted :func:`morphogen.simulate.integrate`.
 Parameters, ``dt``, the species shown and the colour scale are *runtime* arguments of the compiled
 program, so moving a slider never recompiles; only the number of steps per frame is static, and it
 is taken from :data:`STEP_CHOICES` so each value compiles once per model and grid.
@@ -33,11 +34,17 @@ from morphogen.simulate import OVERFLOW, integrate
 from morphogen.steppers import make_step, max_stable_dt
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.limits import Limits, choice, integer, number
+from morphogen.web.recording import Recorder
 
 STEP_CHOICES = (1, 2, 4, 8, 16, 32, 64, 128, 256)
 """Allowed steps per frame (each value is one compiled program)."""
 
 BOUNDARIES = ("periodic", "neumann")
+LIVE_SCHEMES = ("euler", "rk4", "imex1", "imex", "etdrk4")
+"""Time steppers offered live: those of :data:`morphogen.steppers.SCHEMES` that advance one
+fixed step at a time (``adaptive`` chooses its own steps per run, so it is not offered)."""
+UNDO_DEPTH = 10
+"""Brush strokes that can be undone (each keeps one copy of the state)."""
 INITIAL_KINDS = ("square", "noise", "blobs", "seeds", "skaggs", "uniform")
 """Initial conditions offered (those of :mod:`morphogen.initial` that need no file)."""
 FRAMES_TO_PATTERN = 200
@@ -52,7 +59,7 @@ class Engine:
     """Compiled programs for one model on one grid, shared by every tab that shows them.
 
     Attributes:
-        model, grid: what is simulated.
+        model, grid: what is simulated; scheme: the time stepper's name.
         step: ``step(u, p, t, dt, key) -> u`` from :func:`morphogen.steppers.make_step`.
         advance: per steps-per-frame value, the jitted frame program (see :meth:`program`).
         paint: jitted ``paint(u, cx, cy, r, values) -> u``.
@@ -61,6 +68,7 @@ class Engine:
     model: Model
     grid: Grid
     step: Callable
+    scheme: str = "euler"
     advance: dict[int, Callable] = field(default_factory=dict)
     paint: Callable | None = None
     lock: threading.Lock = field(default_factory=threading.Lock)
@@ -97,15 +105,19 @@ def _pixels(f: Any, lo: Any, hi: Any) -> Any:
 
 def _painter(grid: Grid) -> Callable:
     """``paint(u, cx, cy, r, values)``: set a disc of radius ``r`` (grid-width units) around
-    ``(cx, cy)`` in ``[0, 1]^2`` to ``values`` ``(S,)``; distances wrap around on the torus."""
+    ``(cx, cy)`` in ``[0, 1]^2`` to ``values`` ``(S,)``; distances wrap around on the torus.
+
+    On an ``h x w`` grid a height fraction ``dy`` is ``dy h / w`` widths, so the disc stays round.
+    """
     x = jnp.asarray(grid.coords["x"])
     y = jnp.asarray(grid.coords["y"])
+    aspect = grid.shape[0] / grid.shape[1]
 
     def paint(u, cx, cy, r, values):
         ddx = jnp.abs(x - cx)
         ddy = jnp.abs(y - cy)
         ddx = jnp.minimum(ddx, 1.0 - ddx)
-        ddy = jnp.minimum(ddy, 1.0 - ddy)
+        ddy = jnp.minimum(ddy, 1.0 - ddy) * aspect
         mask = (ddx**2 + ddy**2) <= r**2
         return jnp.where(mask[None], values[:, None, None].astype(u.dtype), u)
 
@@ -117,15 +129,19 @@ _ENGINES_LOCK = threading.Lock()
 _ENGINES_SIZE = 12
 
 
-def engine_for(model: Model, key: str, size: int, boundary: str) -> Engine:
-    """The shared :class:`Engine` of a model (by cache key) on an ``size x size`` grid."""
-    ident = (key, size, boundary)
+def engine_for(model: Model, key: str, shape: tuple[int, int], boundary: str,
+               scheme: str = "euler") -> Engine:
+    """The shared :class:`Engine` of a model (by cache key) on an ``(h, w)`` grid with a time
+    stepper of :data:`LIVE_SCHEMES` (one the model or boundary cannot take is refused by
+    :func:`morphogen.steppers.make_step` with its one-line reason)."""
+    ident = (key, tuple(shape), boundary, scheme)
     with _ENGINES_LOCK:
         if ident in _ENGINES:
             _ENGINES.move_to_end(ident)
             return _ENGINES[ident]
-    grid = Grid((size, size), boundary=boundary)
-    eng = Engine(model=model, grid=grid, step=make_step(model, grid, clamp=model.clamp))
+    grid = Grid(tuple(shape), boundary=boundary)
+    step = make_step(model, grid, scheme=scheme, clamp=model.clamp)
+    eng = Engine(model=model, grid=grid, step=step, scheme=scheme)
     with _ENGINES_LOCK:
         _ENGINES[ident] = eng
         while len(_ENGINES) > _ENGINES_SIZE:
@@ -135,7 +151,7 @@ def engine_for(model: Model, key: str, size: int, boundary: str) -> Engine:
 
 @dataclass
 class Frame:
-    """One picture of the live state: ``pixels`` ``(n, n)`` uint8, row 0 at the top."""
+    """One picture of the live state: ``pixels`` ``(h, w)`` uint8, row 0 at the top."""
 
     pixels: np.ndarray
     frame: int
@@ -166,28 +182,40 @@ class LiveSim:
         self.cmap = "viridis"
         self.spec: dict[str, Any] = {"library": "gray-scott"}
         self.size = 256
+        self.height = 256
         self.boundary = "periodic"
+        self.scheme = "euler"
+        self.fixed: tuple[float, float] | None = None
+        self.undo_stack: list[Any] = []
+        self.recorder = Recorder()
 
     # -- configuration --------------------------------------------------------------------
     def configure(self, spec: Mapping[str, Any], size: int = 256, boundary: str = "periodic",
                   params: Mapping[str, Any] | None = None, preset: str | None = None,
-                  init: str | None = None, seed: int = 0) -> dict[str, Any]:
-        """Choose the model and grid, set parameters (defaults, a preset, then overrides) and
+                  init: str | None = None, seed: int = 0, height: int | None = None,
+                  scheme: str = "euler") -> dict[str, Any]:
+        """Choose the model, the grid (``size`` cells wide, ``height`` high, square when
+        ``None``) and the time stepper, set parameters (defaults, a preset, then overrides) and
         reset to initial condition ``init`` (the model's suggestion when ``None``). Validates
         everything before changing anything."""
         lim = self.limits
         size = integer(size, "size", lim.min_size, lim.max_size)
+        height = size if height is None else integer(height, "height", lim.min_size,
+                                                     lim.max_size)
         boundary = choice(boundary, "boundary", BOUNDARIES)
+        scheme = choice(scheme, "scheme", LIVE_SCHEMES)
         model, key = resolve_model(spec, lim)
         if preset is not None and preset not in model.presets:
             model.parameters(preset=preset)  # raises the one-line error listing presets
         values = model.parameters(check_params(params or {}, model), preset=preset or None)
-        eng = engine_for(model, key, size, boundary)
+        eng = engine_for(model, key, (height, size), boundary, scheme)
         values = {k: float(v) for k, v in values.items()}
         u0, init, seed = _initial(eng, values, init or _offered(model.init), seed)
         with self.lock:
             self.spec = dict(spec)
-            self.engine, self.size, self.boundary = eng, size, boundary
+            self.engine, self.size, self.height, self.boundary = eng, size, height, boundary
+            self.scheme = scheme
+            self.fixed = None
             self.values = values
             self.show = model.species.index(model.display_species)
             self.dt = self.chosen_dt = self._default_dt()
@@ -212,13 +240,17 @@ class LiveSim:
             return []
 
     def set_view(self, *, species: str | None = None, steps_per_frame: Any = None,
-                 cmap: str | None = None) -> None:
-        """Species shown, steps per frame (one of :data:`STEP_CHOICES`) and colour map name."""
+                 cmap: str | None = None, value_range: Any = None) -> None:
+        """Species shown, steps per frame (one of :data:`STEP_CHOICES`), colour map name and
+        colour range: ``"auto"`` follows the field, ``[lo, hi]`` fixes it."""
         with self.lock:
             self._touch()
             if species is not None:
                 self.show = self.engine.model.species_index(str(species))
                 self.lo = self.hi = None
+                self.fixed = None
+            if value_range is not None:
+                self._set_range(value_range)
             if steps_per_frame is not None:
                 n = integer(steps_per_frame, "steps per frame", 1, self.limits.max_steps_per_frame)
                 if n not in STEP_CHOICES:
@@ -238,15 +270,19 @@ class LiveSim:
             self._touch()
             self._reset(init, seed)
 
-    def paint(self, x: Any, y: Any, radius: Any = 0.03, mode: str = "excite") -> None:
+    def paint(self, x: Any, y: Any, radius: Any = 0.03, mode: str = "excite",
+              stroke: bool = False) -> None:
         """Set a disc at ``(x, y)`` (fractions of the width and height from the top left) to the
-        model's excited state (``mode='excite'``) or its ground state (``'erase'``)."""
+        model's excited state (``mode='excite'``) or its ground state (``'erase'``).
+        ``stroke=True`` starts a new stroke: the state before it is kept for :meth:`undo`."""
         x = number(x, "x", 0.0, 1.0)
         y = number(y, "y", 0.0, 1.0)
         r = number(radius, "radius", 0.0, 0.5)
         mode = choice(mode, "paint mode", ("excite", "erase"))
         with self.lock:
             self._touch()
+            if stroke:
+                self.undo_stack = [*self.undo_stack, self.u][-UNDO_DEPTH:]
             model = self.engine.model
             vals = model.excited_state(self.values) if mode == "excite" else \
                 model.ground_state(self.values)
@@ -255,6 +291,29 @@ class LiveSim:
             self.u = self.engine.paint(self.u, x, y, r, jnp.asarray(vals, jnp.float32))
             self.error = None
 
+    def undo(self) -> int:
+        """Put back the state from before the last brush stroke (time and everything that grew
+        since stay as they are: only the painted cells' history is replaced, as in a paint
+        program); returns the strokes left to undo."""
+        with self.lock:
+            self._touch()
+            if not self.undo_stack:
+                raise MorphogenError("nothing to undo: no brush stroke since the last reset")
+            self.u = self.undo_stack.pop()
+            self.error = None
+            return len(self.undo_stack)
+
+    def probe(self, x: Any, y: Any) -> dict[str, Any]:
+        """Every species' value in the cell under ``(x, y)`` (fractions from the top left)."""
+        x = number(x, "x", 0.0, 1.0)
+        y = number(y, "y", 0.0, 1.0)
+        with self.lock:
+            h, w = self.engine.grid.shape
+            i, j = min(int(y * h), h - 1), min(int(x * w), w - 1)
+            cell = np.asarray(self.u[:, i, j], np.float64)
+            species = self.engine.model.species
+            return {"row": i, "col": j, "values": dict(zip(species, map(float, cell),
+                                                           strict=True))}
     # -- stepping ---------------------------------------------------------------------------
     def frame(self) -> Frame:
         """Advance ``steps_per_frame`` steps and return the picture.
@@ -277,6 +336,7 @@ class LiveSim:
                     self.u, self.t, self.key = u, t, key
                     self.pixels = np.asarray(img)
                     self._follow(float(fmin), float(fmax))
+                    self.recorder.add(self.pixels)
                     self.total_steps += n
                     self.frames += 1
                 else:
@@ -303,12 +363,12 @@ class LiveSim:
                          float(self.lo), float(self.hi), self.compute_s)
 
     def field(self) -> np.ndarray:
-        """The shown species as a float array ``(n, n)``."""
+        """The shown species as a float array ``(h, w)``."""
         with self.lock:
             return np.asarray(self.u[self.show], np.float64)
 
     def state(self) -> np.ndarray:
-        """The whole state ``(S, n, n)`` as float32."""
+        """The whole state ``(S, h, w)`` as float32."""
         with self.lock:
             return np.asarray(self.u, np.float32)
 
@@ -325,7 +385,13 @@ class LiveSim:
             "dt": self.dt,
             "dt_max": self._dt_max(),
             "size": self.size,
+            "height": self.height,
             "boundary": self.boundary,
+            "scheme": self.scheme,
+            "schemes": list(LIVE_SCHEMES),
+            "range": list(self.fixed) if self.fixed else "auto",
+            "undo": len(self.undo_stack),
+            "recording": self.recorder.describe(),
             "init": self.init,
             "seed": self.seed,
             "steps_per_frame": self.steps_per_frame,
@@ -354,10 +420,25 @@ class LiveSim:
         self.error = None
         self.lo = self.hi = None
         self.compute_s = 0.0
-        self.pixels = np.zeros((self.size, self.size), np.uint8)
+        self.pixels = np.zeros((self.height, self.size), np.uint8)
+        self.undo_stack = []
+
+    def _set_range(self, value_range: Any) -> None:
+        if value_range == "auto":
+            self.fixed = None
+            self.lo = self.hi = None
+            return
+        if not isinstance(value_range, list | tuple) or len(value_range) != 2:
+            raise MorphogenError('colour range must be "auto" or [low, high]')
+        lo = number(value_range[0], "colour range low", -1e30, 1e30)
+        hi = number(value_range[1], "colour range high", -1e30, 1e30)
+        if not hi > lo:
+            raise MorphogenError(f"colour range needs low < high, got [{lo:g}, {hi:g}]")
+        self.fixed = (lo, hi)
+        self.lo, self.hi = lo, hi
 
     def _dt_max(self) -> float:
-        return max_stable_dt(self.engine.model, self.engine.grid, self.values)
+        return max_stable_dt(self.engine.model, self.engine.grid, self.values, self.scheme)
 
     def _default_dt(self) -> float:
         """The model's suggested ``dt``, lowered below the explicit stability limit if needed."""
@@ -376,13 +457,18 @@ class LiveSim:
         return []
 
     def _scale(self) -> tuple[np.float32, np.float32]:
-        if self.lo is None:
+        if self.fixed is not None:
+            self.lo, self.hi = self.fixed
+        elif self.lo is None:
             f = np.asarray(self.u[self.show])
             self.lo, self.hi = float(f.min()), float(f.max())
         return np.float32(self.lo), np.float32(self.hi)
 
     def _follow(self, fmin: float, fmax: float) -> None:
-        """Ease the colour scale toward ``[fmin, fmax]`` (jumping out at once if exceeded)."""
+        """Ease the colour scale toward ``[fmin, fmax]`` (jumping out at once if exceeded);
+        a fixed range stays."""
+        if self.fixed is not None:
+            return
         lo = self.lo + RANGE_EASING * (fmin - self.lo)
         hi = self.hi + RANGE_EASING * (fmax - self.hi)
         self.lo, self.hi = min(lo, fmin), max(hi, fmax)
@@ -402,7 +488,7 @@ def _default_steps(model: Model, dt: float) -> int:
 
 def _initial(eng: Engine, values: Mapping[str, float], init: Any,
              seed: Any) -> tuple[np.ndarray, str, int]:
-    """Validated initial condition: ``(u0 (S, n, n), init, seed)``."""
+    """Validated initial condition: ``(u0 (S, h, w), init, seed)``."""
     init = choice(init, "initial condition", INITIAL_KINDS)
     seed = integer(seed, "seed", 0, 2**31 - 1)
     return make_initial(init, eng.model, eng.grid, values, seed=seed), init, seed
