@@ -178,6 +178,14 @@ class Archive:
         with self._db() as db, db:
             db.execute("UPDATE runs SET status=? WHERE id=?", (status, run_id))
 
+    def delete_run(self, run_id: str) -> None:
+        """Forget a run: its row, generations and individuals, in one transaction (its
+        directory is the caller's to remove)."""
+        with self._db() as db, db:
+            for table, key in (("individuals", "run_id"), ("generations", "run_id"),
+                               ("runs", "id")):
+                db.execute(f"DELETE FROM {table} WHERE {key}=?", (run_id,))
+
     # --- reading ----------------------------------------------------------------------------
 
     def runs(self) -> list[dict[str, Any]]:

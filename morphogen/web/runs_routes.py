@@ -1,5 +1,12 @@
 """Routes of the Runs page: browse the archive shared with ``morphogen evolve`` / ``runs``.
 
+A run that is not advancing on this server (stopped, interrupted by a restart, or run by the
+command line) can be resumed here: it continues from its last recorded generation with
+``search.run.evolve``, exactly as ``morphogen evolve --resume RUN`` would, and the Evolve page
+follows it. A run can be deleted: its rows leave the archive and its directory is removed, but
+only a directory inside the archive's own folder (where the app and ``morphogen evolve``
+without ``--out`` put runs); a run elsewhere, or one still advancing, is refused.
+
 Files of a run (contact sheets, individuals' pictures, the fitness plot, best individuals'
 run files, a MAP-Elites run's elite map, coverage plot and elites' run files) are served from
 the run's directory only: the requested path is resolved and must stay inside that directory
@@ -8,6 +15,7 @@ and end in ``.png`` or ``.json``.
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -115,6 +123,48 @@ def _map_elites(run: dict[str, Any], problem: Problem) -> dict[str, Any] | None:
              for name in ("elites.png", "qd.png")}
     return {"grid": index.get("grid"), "cells": index.get("cells"), "elites": elites,
             "map": files["elites.png"], "qd_plot": files["qd.png"]}
+
+
+def _active(request: Request, run_id: str) -> bool:
+    """Whether this server is advancing the run (or waiting for a choice in it)."""
+    try:
+        return request.app.state.evolve.get(run_id).state in ("running", "choose")
+    except MorphogenError:
+        return False
+
+
+@router.post("/{run_id}/resume")
+async def resume(request: Request, run_id: str):
+    """Continue a stopped or interrupted run from its last recorded generation."""
+    archive, info = _run(request, run_id)
+    if _active(request, run_id):
+        raise MorphogenError(f"run {run_id} is already running on this server")
+    done = len(archive.generations(run_id))
+    if done >= info["generations"]:
+        raise MorphogenError(f"run {run_id} has finished all {info['generations']} generations")
+    problem = Problem.from_dict(info["config"]["problem"])
+    archive.set_status(run_id, "running")
+    run = request.app.state.evolve.launch(archive, run_id, problem, info["generations"],
+                                          info["population"])
+    return run.to_json()
+
+
+@router.delete("/{run_id}")
+async def delete(request: Request, run_id: str):
+    """Delete a run from the archive and its directory (inside the archive's folder only)."""
+    archive, info = _run(request, run_id)
+    if _active(request, run_id):
+        raise MorphogenError(f"run {run_id} is still running; stop it before deleting it")
+    folder = archive.path.parent.resolve()
+    directory = Path(info["dir"]).resolve()
+    if folder not in directory.parents:
+        raise MorphogenError(
+            f"run {run_id} lives in {directory}, outside the archive's folder {folder}; "
+            "delete it from the command line"
+        )
+    archive.delete_run(run_id)
+    shutil.rmtree(directory, ignore_errors=True)
+    return {"deleted": run_id}
 
 
 @router.get("/{run_id}/generations/{gen}")
