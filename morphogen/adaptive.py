@@ -100,16 +100,12 @@ def check_deterministic(domain: Any, noise: Noise | None) -> None:
 
 
 def vector_field(model: Model, domain: Any) -> Any:
-    """``f(t, u, p)`` for diffrax: the model's right-hand side, zero on held Dirichlet values."""
+    """``f(t, u, p)`` for diffrax: the model's right-hand side, zero on held Dirichlet values
+    (:func:`morphogen.steppers.make_rhs`)."""
     rhs = make_rhs(model, domain)
-    bcs = domain.boundaries(model.species)
-    probe = np.full((len(model.species), *domain.spatial_shape), np.nan, np.float32)
-    with jax.ensure_compile_time_eval():
-        held = np.isfinite(np.asarray(domain.hold(jnp.asarray(probe), bcs)))
 
     def f(t: Array, u: Array, p: Params) -> Array:
-        du = rhs(u, p, t)
-        return jnp.where(held, 0.0, du) if held.any() else du
+        return rhs(u, p, t)
 
     return f
 

@@ -58,15 +58,33 @@ class Noise:
 
 
 def make_rhs(model: Model, domain: Any) -> Callable[[Array, Params, Array], Array]:
-    """The deterministic right-hand side ``f(u, p, t)`` of the model on the domain."""
+    """The deterministic right-hand side ``f(u, p, t)`` of the model on the domain.
+
+    ``f = 0`` on held Dirichlet values (:func:`held_mask`): a state whose held cells carry
+    their values keeps them through every stage of a Runge-Kutta step, so the boundary enters
+    each stage and the scheme keeps its order (resetting it only after the step would leave the
+    inner stages with drifted boundary values, an ``O(dt)`` error per unit time).
+    """
     bcs = domain.boundaries(model.species)
     coords = {k: jnp.asarray(v) for k, v in domain.coords.items()}
+    held = held_mask(model, domain)
 
     def rhs(u: Array, p: Params, t: Array) -> Array:
         c = {**coords, "t": t}
-        return model.reaction(u, p, c) + domain.diffuse(u, model.diffusion(p, c), bcs)
+        du = model.reaction(u, p, c) + domain.diffuse(u, model.diffusion(p, c), bcs)
+        return du if held is None else jnp.where(held, 0.0, du)
 
     return rhs
+
+
+def held_mask(model: Model, domain: Any) -> np.ndarray | None:
+    """Where ``domain.hold`` imposes Dirichlet values, shape ``(S, *spatial)``; ``None`` when
+    nothing is held."""
+    bcs = domain.boundaries(model.species)
+    probe = np.full((len(model.species), *domain.spatial_shape), np.nan, np.float32)
+    with jax.ensure_compile_time_eval():
+        held = np.isfinite(np.asarray(domain.hold(jnp.asarray(probe), bcs)))
+    return held if held.any() else None
 
 
 def make_step(
@@ -79,7 +97,9 @@ def make_step(
 ) -> Callable[[Array, Params, Array, Array, Array], Array]:
     """One time step ``step(u, p, t, dt, key) -> u`` (pure, jit- and grad-friendly).
 
-    Dirichlet values are re-imposed after every step; ``clamp`` (Skaggs §3.2's ``[0, 5]``)
+    Dirichlet values are imposed before the step, stay fixed through its stages
+    (:func:`make_rhs`) and are re-imposed after noise and clamping; ``clamp`` (Skaggs §3.2's
+    ``[0, 5]``)
     bounds values only when asked. A domain with stochastic diffusion (``domain.stochastic``
     true, e.g. a mesh with Ringham's ``omega``) adds ``domain.diffusion_noise(u, D, bcs, dt,
     key)``, evaluated at the step's starting state, after the deterministic update.
@@ -104,7 +124,7 @@ def make_step(
         if flux_noise is not None:
             key, sub = jax.random.split(key)
             du = flux_noise(u, model.diffusion(p, {**coords, "t": t}), bcs, dt, sub)
-        u = advance(u, p, t, dt)
+        u = advance(domain.hold(u, bcs), p, t, dt)
         if noise is not None and noise.amplitude > 0:
             mask = noise_mask.reshape((-1,) + (1,) * (u.ndim - 1))
             xi = jax.random.normal(key, u.shape, u.dtype) * mask
