@@ -6,6 +6,7 @@
 import { writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { chromium } from 'playwright-core';
+import { measure, readoutAndUndo, rectangleImexRecording, resumeAndDelete, urlState } from './tools.mjs';
 
 const [scenario, base, out] = process.argv.slice(2);
 const ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
@@ -63,6 +64,7 @@ async function openExplore(page) {
 
 // drag the range input `selector` to fraction `frac` of its width with the mouse
 async function dragSlider(page, selector, frac) {
+  await page.locator(selector).scrollIntoViewIfNeeded();
   const box = await page.locator(selector).boundingBox();
   const y = box.y + box.height / 2;
   await page.mouse.move(box.x + box.width * 0.5, y);
@@ -86,8 +88,9 @@ const SCENARIOS = {
     const second = await canvasPrint(page);
     await page.screenshot({ path: join(out, 'explore.png') });
     const state = await page.evaluate(() => window.morphogenExplore.state);
+    const serverMs = await page.evaluate(() => window.morphogenExplore.last.ms);
     return { fps, change: diff(first, second), size: state.size, model: state.model,
-      steps_per_frame: state.steps_per_frame, server_ms: await page.evaluate(() => window.morphogenExplore.last.ms) };
+      steps_per_frame: state.steps_per_frame, server_ms: serverMs, measured: await measure(page) };
   },
 
   async slider(page) {
@@ -113,7 +116,7 @@ const SCENARIOS = {
     const b = await canvasPrint(page);
     await page.screenshot({ path: join(out, 'slider.png') });
     return { repeat: diff(a1, a2), change: diff(a1, b), before, after,
-      shown: await page.inputValue('input[data-param="F"] + input') };
+      shown: await page.inputValue('input[data-param="F"] + input'), ...(await urlState(page)) };
   },
 
   async paint(page) {
@@ -132,20 +135,22 @@ const SCENARIOS = {
     await step(page, 2);
     const painted = [await pixelAt(page, 0.25, 0.25), await pixelAt(page, 0.75, 0.75)];
     const untouched = await pixelAt(page, 0.75, 0.25);
+    const tools = await readoutAndUndo(page);
     await page.click('#ex-run');
     await waitFrames(page, 20);
     await page.screenshot({ path: join(out, 'paint.png') });
-    return { flat, painted, untouched };
+    return { flat, painted, untouched, ...tools };
   },
 
   async download(page) {
     await openExplore(page);
+    const rect = await rectangleImexRecording(page, out);
     await waitFrames(page, 5);
     const [run] = await Promise.all([page.waitForEvent('download'), page.click('#ex-save-run')]);
     await run.saveAs(join(out, 'run.json'));
     const [png] = await Promise.all([page.waitForEvent('download'), page.click('#ex-save-png')]);
     await png.saveAs(join(out, 'explore-saved.png'));
-    return { run: run.suggestedFilename(), png: png.suggestedFilename() };
+    return { run: run.suggestedFilename(), png: png.suggestedFilename(), ...rect };
   },
 
   async atlas(page) {
@@ -227,7 +232,8 @@ const SCENARIOS = {
     await page.waitForSelector('#runs-sheet img');
     await page.waitForTimeout(800);
     await page.screenshot({ path: join(out, 'runs.png'), fullPage: true });
-    return { run, picked, runs: runs.runs, gen1: gen1.individuals.map((i) => i.fitness), reloaded,
+    const actions = await resumeAndDelete(page, base, run);
+    return { ...actions, run, picked, runs: runs.runs, gen1: gen1.individuals.map((i) => i.fitness), reloaded,
       detailText, continued };
   },
 
@@ -460,7 +466,7 @@ const browser = await chromium.launch({
   args: ARGS,
 });
 // launch() gives every run a fresh temporary profile
-const context = await browser.newContext({ viewport: { width: 1280, height: 900 }, acceptDownloads: true });
+const context = await browser.newContext({ viewport: { width: 1280, height: 800 }, acceptDownloads: true });
 const page = await context.newPage();
 const problems = [];
 const consoleErrors = [];

@@ -86,6 +86,14 @@ def test_explore_shows_a_live_simulation(server):
           f"{data['fps']:.1f} frames/s in the browser, {data['server_ms']:.1f} ms per frame "
           "on the server")
     assert (OUT / "explore.png").stat().st_size > 10_000
+    # docs/web.md's figures (timings are measured, not asserted)
+    m = data["measured"]
+    load = os.getloadavg()[0]
+    (OUT / "explore-speed.txt").write_text(
+        f"32 steps/frame: 256^2 {m['fps256']:.1f} frames/s, 128^2 {m['fps128']:.1f} frames/s; "
+        f"model switch to first frame: {m['switchFirst']:.2f} s first time, "
+        f"{m['switchBack']:.2f} s back, {m['switchAgain']:.2f} s again; load {load:.2f}\n")
+    assert m["fps256"] > 0 and m["fps128"] > 0
 
 
 def test_moving_the_feed_slider_changes_the_picture(server):
@@ -94,6 +102,11 @@ def test_moving_the_feed_slider_changes_the_picture(server):
     assert data["after"] > data["before"]
     assert float(data["shown"]) == pytest.approx(data["after"], rel=1e-3)
     assert data["change"] > 1000, "changing F did not change the picture"
+    # the address holds the settings, and a reload restores them
+    assert "p.F=" in data["hash"] and "cmap=magma" in data["hash"]
+    assert data["urlAfter"] == data["urlBefore"] and data["urlAfter"]["cmap"] == "magma"
+    assert data["urlAfter"]["F"] == pytest.approx(data["after"])
+    assert data["hashAfter"] == data["hash"]
 
 
 def test_painting_a_perturbation(server):
@@ -103,6 +116,18 @@ def test_painting_a_perturbation(server):
     assert painted[0] != flat[0], "the click left no mark"
     assert painted[1] != flat[1], "the drag left no mark"
     assert data["untouched"] == flat[0], "paint appeared where nothing was painted"
+    # the readout names every species under the cursor; the bar spans the frame's range
+    assert data["paintedReadout"]["values"]["v"] > 0.05  # the click excited v there
+    readout = data["undone"]
+    assert set(readout["values"]) == {"u", "v"} and "u = " in readout["text"]
+    assert (readout["row"], readout["col"]) == (64, 64)  # a quarter of 256
+    bar = data["bar"]
+    assert bar["top"] == bar["lutTop"] and bar["hi"] and bar["lo"]
+    assert data["undoLabel"] == "Undo stroke (2)"
+    # U twice took both strokes back: the uniform start (Gray-Scott u = 1, v = 0) is back
+    assert data["undone"]["values"] == {"u": 1.0, "v": 0.0}
+    assert data["undoneDrag"]["values"] == {"u": 1.0, "v": 0.0}
+    assert data["undoDisabled"]
 
 
 def test_one_evolve_generation_with_two_favourites(server):
@@ -117,22 +142,33 @@ def test_one_evolve_generation_with_two_favourites(server):
     # reloading while the run waits for a choice keeps it; Runs offers to continue it
     assert data["reloaded"] == {"gen": 2, "state": "choose", "stop": True}
     assert "null" not in data["detailText"] and data["continued"] == "choose"
+    # stopped, it resumes from the Runs page at generation 2, and is deleted after a confirmation
+    assert data["resumedGen"] == 2
+    assert data["run"] in data["dialog"] and data["run"] not in data["listedAfterDelete"]
 
 
 def test_downloaded_params_file_runs_with_the_cli(server, tmp_path):
     data = scenario(server, "download")
     assert data["run"].endswith(".json") and data["png"].endswith(".png")
     assert (OUT / "explore-saved.png").read_bytes()[:4] == b"\x89PNG"
+    # a 256 x 128 grid under IMEX, shown at its own aspect ratio, recorded as a GIF
+    assert data["canvas"] == [256, 128] and data["shownRatio"] == pytest.approx(2, rel=0.02)
+    import imageio.v3 as iio
+
+    movie = iio.imread(OUT / "recording.gif", index=None)
+    assert data["gif"].endswith(".gif") and data["recordedLabel"] >= 12
+    assert movie.shape[1:3] == (128, 256) and 12 <= len(movie) <= data["recordedLabel"]
     run_file = OUT / "run.json"
     config = json.loads(run_file.read_text())["config"]
-    assert config["model"] == "gray-scott" and config["size"] == [256, 256]
+    assert config["model"] == "gray-scott" and config["size"] == [128, 256]
+    assert config["scheme"] == "imex"
     out = tmp_path / "sim"
     r = subprocess.run([sys.executable, "-m", "morphogen.cli.main", "simulate", "--config",
                         str(run_file), "--out", str(out)], capture_output=True, text=True,
                        timeout=300, env={**os.environ, "JAX_PLATFORMS": "cpu"})
     assert r.returncode == 0, r.stderr
     with np.load(out / "state.npz") as state:
-        assert state["v"].shape == (256, 256) and np.isfinite(state["v"]).all()
+        assert state["v"].shape == (128, 256) and np.isfinite(state["v"]).all()
     record = json.loads((out / "run.json").read_text())
     assert record["resolved"]["steps"] == config["steps"]
 

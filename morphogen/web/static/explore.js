@@ -2,6 +2,8 @@
 // at a time (send "next", receive a binary frame); controls are small JSON requests.
 
 import { api, colourTable, el, fillSelect, fmt, showError } from './api.js';
+import { ExploreTools } from './explore_tools.js';
+import { currentQuery, decodeSettings, encodeState } from './urlstate.js';
 
 const HEADER_BYTES = 28; // u16 w, u16 h, u32 frame, f32 t, u32 steps, f32 lo, f32 hi, f32 ms
 const EQUATIONS = '__equations__';
@@ -45,6 +47,8 @@ export class Explore {
     this.sending = false;
     this.paintQueue = [];
     this.visible = true;
+    this.lastQuery = null; // the address's query this page last wrote or loaded
+    this.tools = new ExploreTools(this);
     // what the end-to-end tests read
     window.morphogenExplore = this;
   }
@@ -57,24 +61,44 @@ export class Explore {
     fillSelect(this.$('ex-cmap'), info.colormaps, 'viridis');
     fillSelect(this.$('ex-steps'), info.step_choices.map(String));
     fillSelect(this.$('ex-init'), info.init_kinds);
+    fillSelect(this.$('ex-scheme'), info.schemes, 'euler');
     this.$('ex-equations').value = EXAMPLE;
     this.canvas = this.$('ex-canvas');
     this.ctx = this.canvas.getContext('2d');
     this.bindControls();
     this.bindPainting();
-    await this.load({ model: { library: 'gray-scott' } });
+    this.tools.bind();
+    const query = currentQuery();
+    this.lastQuery = query;
+    await this.load(decodeSettings(query) || { model: { library: 'gray-scott' } });
   }
 
   show() {
     this.visible = true;
+    const query = currentQuery();
+    if (query && query !== this.lastQuery && decodeSettings(query)) {
+      this.lastQuery = query; // a link opened in this tab
+      this.load(decodeSettings(query));
+    } else {
+      this.writeUrl();
+    }
     this.request();
+  }
+
+  // the settings into the address (replacing it: no history entry per slider move)
+  writeUrl() {
+    if (!this.visible || !this.state || !this.spec || this.app.current !== 'explore') return;
+    const query = encodeState(this.state, this.spec);
+    this.lastQuery = query;
+    window.history.replaceState(null, '', `#explore?${query}`);
   }
 
   hide() {
     this.visible = false;
   }
 
-  // (Re)start with settings {model, params, preset, init, seed, size, boundary}.
+  // (Re)start with settings {model, params, preset, init, seed, size, height, boundary,
+  // scheme}, then optionally {view: {cmap, species, steps_per_frame, range}, dt} (from a link).
   async load(settings) {
     this.presetName = settings.preset || '';
     const body = {
@@ -85,7 +109,10 @@ export class Explore {
       seed: settings.seed ?? 0,
       size: settings.size ?? Number(this.$('ex-size').value),
       boundary: settings.boundary ?? this.$('ex-boundary').value,
+      height: settings.height ?? (this.$('ex-height').value ? Number(this.$('ex-height').value) : undefined),
+      scheme: settings.scheme ?? this.$('ex-scheme').value,
     };
+    if ('size' in settings && !('height' in settings)) body.height = undefined; // square
     if (settings.model.library) this.$('ex-model').value = settings.model.library;
     else {
       this.$('ex-model').value = EQUATIONS;
@@ -103,6 +130,13 @@ export class Explore {
         this.ws = null;
         if (old) old.close();
         this.openSocket();
+      }
+      this.tools.forget();
+      if (settings.view && Object.keys(settings.view).length) {
+        state = await api(`/api/live/${this.sid}/view`, { method: 'POST', body: settings.view });
+      }
+      if (settings.dt) {
+        state = await api(`/api/live/${this.sid}/params`, { method: 'POST', body: { params: {}, dt: settings.dt } });
       }
       this.model = settings.model.library
         ? await api(`/api/models/${settings.model.library}`)
@@ -134,9 +168,19 @@ export class Explore {
     }
     sizes.value = String(state.size);
     this.$('ex-cmap').value = state.cmap;
+    this.$('ex-height').value = state.height === state.size ? '' : String(state.height);
+    if (![...this.$('ex-height').options].some((o) => o.value === this.$('ex-height').value)) {
+      this.$('ex-height').add(new Option(String(state.height), String(state.height)));
+      this.$('ex-height').value = String(state.height);
+    }
+    this.$('ex-scheme').value = state.scheme;
+    this.$('ex-boundary').value = state.boundary;
+    this.canvas.style.aspectRatio = `${state.size} / ${state.height}`;
     this.setDt(state.dt, state.dt_max);
     this.lut = await colourTable(state.cmap);
+    this.tools.onState(state);
     this.updateLinks();
+    this.writeUrl();
     if (state.error) showError(this.$('ex-error'), state.error);
   }
 
@@ -209,6 +253,7 @@ export class Explore {
       this.setDt(res.dt, res.dt_max);
       showError(this.$('ex-notice'), res.notices.join('\n'));
       this.updateLinks();
+      this.writeUrl();
     } catch (err) {
       this.fail(err);
       if (this.state) this.setDt(this.state.dt, this.state.dt_max); // a refused dt leaves the box
@@ -235,24 +280,34 @@ export class Explore {
       this.sendParams({ dt: Number(this.$('ex-dt').value) });
     });
     this.$('ex-dt-num').addEventListener('change', () => this.sendParams({ dt: Number(this.$('ex-dt-num').value) }));
-    const view = async (body) => {
-      try {
-        const res = await api(`/api/live/${this.sid}/view`, { method: 'POST', body });
-        this.state = res;
-        this.lut = await colourTable(res.cmap);
-        this.updateLinks();
-        this.redraw();
-      } catch (err) { this.fail(err); }
-    };
+    const view = (body) => this.setView(body);
     this.$('ex-species').addEventListener('change', () => view({ species: this.$('ex-species').value }));
     this.$('ex-cmap').addEventListener('change', () => view({ cmap: this.$('ex-cmap').value }));
     this.$('ex-steps').addEventListener('change', () => view({ steps_per_frame: Number(this.$('ex-steps').value) }));
     this.$('ex-reset').addEventListener('click', () => this.reset());
     this.$('ex-size').addEventListener('change', () => this.restart());
     this.$('ex-boundary').addEventListener('change', () => this.restart());
+    this.$('ex-height').addEventListener('change', () => this.restart());
+    this.$('ex-scheme').addEventListener('change', () => this.restart());
     this.$('ex-run').addEventListener('click', () => this.setRunning(!this.running));
     this.$('ex-step').addEventListener('click', () => this.stepOnce());
     document.addEventListener('keydown', (ev) => this.onKey(ev));
+  }
+
+  // species, colour map, steps per frame or colour range: no restart
+  async setView(body) {
+    try {
+      const res = await api(`/api/live/${this.sid}/view`, { method: 'POST', body });
+      this.state = res;
+      this.lut = await colourTable(res.cmap);
+      this.tools.onState(res);
+      this.updateLinks();
+      this.writeUrl();
+      this.redraw();
+    } catch (err) {
+      this.fail(err);
+      if (this.state) this.tools.onState(this.state); // a refused range leaves the boxes
+    }
   }
 
   stepOnce() {
@@ -265,16 +320,19 @@ export class Explore {
     if (!this.visible || ev.ctrlKey || ev.metaKey || ev.altKey) return;
     if (ev.target.closest?.('input, textarea, select, [contenteditable]')) return;
     const action = { ' ': () => this.setRunning(!this.running), s: () => this.stepOnce(),
-      r: () => this.reset() }[ev.key.toLowerCase()];
+      r: () => this.reset(), u: () => this.tools.undo() }[ev.key.toLowerCase()];
     if (!action) return;
     ev.preventDefault();
     action();
   }
 
   restart() {
+    const height = this.$('ex-height').value;
     this.load({
       model: this.spec, params: this.state.params, init: this.$('ex-init').value,
-      seed: Number(this.$('ex-seed').value),
+      seed: Number(this.$('ex-seed').value), size: Number(this.$('ex-size').value),
+      height: height ? Number(height) : undefined, boundary: this.$('ex-boundary').value,
+      scheme: this.$('ex-scheme').value,
     });
   }
 
@@ -284,6 +342,8 @@ export class Explore {
         method: 'POST', body: { init: this.$('ex-init').value, seed: Number(this.$('ex-seed').value) },
       });
       this.state = res;
+      this.tools.onState(res);
+      this.writeUrl();
       showError(this.$('ex-error'), '');
       if (!this.running) this.request(true, true); // show the new start while paused
     } catch (err) { this.fail(err); }
@@ -358,6 +418,7 @@ export class Explore {
       ms: head.getFloat32(24, true), pixels: new Uint8Array(buf, HEADER_BYTES, w * h),
     };
     this.redraw();
+    this.tools.onFrame(this.last);
     this.frames += 1;
     const now = performance.now();
     this.fpsWindow.push(now);
@@ -393,15 +454,18 @@ export class Explore {
   // -- painting ----------------------------------------------------------------------------
   bindPainting() {
     let down = false;
+    let start = false; // the next point begins a stroke (one undo step)
     const point = (ev) => {
       const r = this.canvas.getBoundingClientRect();
       const x = Math.min(Math.max((ev.clientX - r.left) / r.width, 0), 1);
       const y = Math.min(Math.max((ev.clientY - r.top) / r.height, 0), 1);
-      this.paintQueue.push([x, y]);
+      this.paintQueue.push([x, y, start]);
+      start = false;
       if (!this.paintTimer) this.paintTimer = setTimeout(() => this.flushPaint(), 30);
     };
     this.canvas.addEventListener('pointerdown', (ev) => {
       down = true;
+      start = true;
       this.canvas.setPointerCapture(ev.pointerId);
       point(ev);
     });
@@ -413,17 +477,26 @@ export class Explore {
 
   async flushPaint() {
     this.paintTimer = null;
-    const points = this.paintQueue.splice(0, 64);
+    // one request holds at most one stroke's start, as its first point
+    let n = 1;
+    while (n < Math.min(64, this.paintQueue.length) && !this.paintQueue[n][2]) n += 1;
+    const batch = this.paintQueue.splice(0, n);
     if (this.paintQueue.length) this.paintTimer = setTimeout(() => this.flushPaint(), 30);
-    if (!points.length || !this.sid) return;
+    if (!batch.length || !this.sid) return;
+    const previous = this.paintDone;
+    let done;
+    this.paintDone = new Promise((resolve) => { done = resolve; });
     try {
-      await api(`/api/live/${this.sid}/paint`, {
+      await previous; // strokes reach the server in order
+      const res = await api(`/api/live/${this.sid}/paint`, {
         method: 'POST',
-        body: { points, radius: Number(this.$('ex-brush').value), mode: this.$('ex-paint-mode').value },
+        body: { points: batch.map(([x, y]) => [x, y]), stroke: batch[0][2],
+          radius: Number(this.$('ex-brush').value), mode: this.$('ex-paint-mode').value },
       });
+      this.tools.setUndo(res.undo);
       showError(this.$('ex-error'), '');
       if (!this.running) this.request(true, true); // show the stroke while paused
-    } catch (err) { this.fail(err); }
+    } catch (err) { this.fail(err); } finally { done(); }
   }
 
   fail(err) {

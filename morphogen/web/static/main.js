@@ -58,7 +58,8 @@ async function start() {
     document.getElementById('status').textContent = `server error: ${err.message}`;
     return;
   }
-  const route = () => app.show(window.location.hash.replace('#', '') || 'explore');
+  // #page, or #explore?settings (see urlstate.js)
+  const route = () => app.show(window.location.hash.replace('#', '').split('?')[0] || 'explore');
   window.addEventListener('hashchange', route);
   await route();
 }

@@ -1,0 +1,144 @@
+// Explore's tools around the picture: the colour bar (automatic or fixed range), the value
+// readout under the cursor, undo of brush strokes and recording the view as GIF/MP4.
+// `x` is the Explore page; requests go to its live simulation's routes.
+
+import { api, fmt, showError } from './api.js';
+
+export class ExploreTools {
+  constructor(x) {
+    this.x = x;
+    this.$ = x.$;
+    this.readout = null; // what the end-to-end tests read: {row, col, values}
+    this.probing = false;
+    this.probeAt = null;
+    this.recorded = 0;
+  }
+
+  bind() {
+    const { $ } = this;
+    this.bar = $('ex-cb').getContext('2d');
+    $('ex-range-mode').addEventListener('change', () => this.rangeMode());
+    for (const id of ['ex-range-lo', 'ex-range-hi']) $(id).addEventListener('change', () => this.sendRange());
+    $('ex-undo').addEventListener('click', () => this.undo());
+    $('ex-record').addEventListener('click', () => this.toggleRecording());
+    const canvas = this.x.canvas;
+    canvas.addEventListener('pointermove', (ev) => this.probe(ev));
+    canvas.addEventListener('pointerleave', () => { this.probeAt = null; $('ex-readout').innerHTML = '&nbsp;'; });
+  }
+
+  // after every state from the server: range controls, undo button, recording state
+  onState(state) {
+    const fixed = Array.isArray(state.range);
+    this.$('ex-range-mode').value = fixed ? 'fixed' : 'auto';
+    this.$('ex-range-box').hidden = !fixed;
+    if (fixed) [this.$('ex-range-lo').value, this.$('ex-range-hi').value] = state.range.map(fmt);
+    if (state.undo !== undefined) this.setUndo(state.undo);
+    this.drawBar();
+  }
+
+  // -- colour bar ---------------------------------------------------------------------------
+  drawBar() {
+    const lut = this.x.lut;
+    if (!lut) return;
+    const img = this.bar.createImageData(256, 1);
+    for (let i = 0; i < 256; i += 1) {
+      img.data.set([lut[3 * i], lut[3 * i + 1], lut[3 * i + 2], 255], 4 * i);
+    }
+    this.bar.putImageData(img, 0, 0);
+    this.$('ex-cb-name').textContent = this.x.state?.show ?? '';
+  }
+
+  // each frame: the range its colours were scaled to
+  onFrame(f) {
+    this.$('ex-cb-lo').textContent = fmt(f.lo);
+    this.$('ex-cb-hi').textContent = fmt(f.hi);
+    if (this.recording) {
+      this.recorded += 1;
+      this.$('ex-record').textContent = `Stop recording (${this.recorded} frames)`;
+    }
+  }
+
+  rangeMode() {
+    const fixed = this.$('ex-range-mode').value === 'fixed';
+    this.$('ex-range-box').hidden = !fixed;
+    if (fixed) {
+      const f = this.x.last;
+      this.$('ex-range-lo').value = fmt(f ? f.lo : 0);
+      this.$('ex-range-hi').value = fmt(f ? f.hi : 1);
+      this.sendRange();
+    } else {
+      this.x.setView({ range: 'auto' });
+    }
+  }
+
+  sendRange() {
+    this.x.setView({ range: [Number(this.$('ex-range-lo').value), Number(this.$('ex-range-hi').value)] });
+  }
+
+  // -- value readout ------------------------------------------------------------------------
+  probe(ev) {
+    const r = this.x.canvas.getBoundingClientRect();
+    this.probeAt = [
+      Math.min(Math.max((ev.clientX - r.left) / r.width, 0), 1),
+      Math.min(Math.max((ev.clientY - r.top) / r.height, 0), 1),
+    ];
+    if (!this.probing) this.sendProbe();
+  }
+
+  // one request at a time; the latest cursor position wins
+  async sendProbe() {
+    if (!this.probeAt || !this.x.sid) return;
+    const [px, py] = this.probeAt;
+    this.probing = true;
+    try {
+      const data = await api(`/api/live/${this.x.sid}/probe?x=${px}&y=${py}`);
+      this.readout = data;
+      const values = Object.entries(data.values).map(([k, v]) => `${k} = ${fmt(v)}`).join(' · ');
+      this.$('ex-readout').textContent = `cell (${data.col}, ${data.row}) · ${values}`;
+    } catch { /* the cursor left a grid that changed; the next move asks again */ }
+    this.probing = false;
+    if (this.probeAt && (this.probeAt[0] !== px || this.probeAt[1] !== py)) this.sendProbe();
+  }
+
+  // -- undo ---------------------------------------------------------------------------------
+  setUndo(n) {
+    this.$('ex-undo').disabled = !(n > 0);
+    this.$('ex-undo').textContent = n > 0 ? `Undo stroke (${n})` : 'Undo stroke';
+  }
+
+  async undo() {
+    if (!this.x.sid) return;
+    try {
+      await this.x.paintDone;
+      const res = await api(`/api/live/${this.x.sid}/undo`, { method: 'POST' });
+      this.setUndo(res.undo);
+      showError(this.$('ex-error'), '');
+      if (!this.x.running) this.x.request(true, true); // show it while paused
+    } catch (err) { this.x.fail(err); }
+  }
+
+  // -- recording ----------------------------------------------------------------------------
+  async toggleRecording() {
+    const on = !this.recording;
+    try {
+      const res = await api(`/api/live/${this.x.sid}/record`, { method: 'POST', body: { on } });
+      this.recording = res.on;
+      this.recorded = res.frames;
+      this.$('ex-record').textContent = on ? 'Stop recording (0 frames)' : 'Record again';
+      this.$('ex-recorded').hidden = on || !res.frames;
+      const base = `/api/live/${this.x.sid}/recording`;
+      this.$('ex-save-gif').href = `${base}?format=gif`;
+      this.$('ex-save-mp4').href = `${base}?format=mp4`;
+      if (on && !this.x.running) this.x.setRunning(true);
+    } catch (err) { this.x.fail(err); }
+  }
+
+  // a new simulation (model or grid changed): nothing recorded, nothing to undo
+  forget() {
+    this.recording = false;
+    this.recorded = 0;
+    this.$('ex-record').textContent = 'Record';
+    this.$('ex-recorded').hidden = true;
+    this.setUndo(0);
+  }
+}

@@ -1,0 +1,55 @@
+// Explore's settings in the page address: #explore?model=gray-scott&p.F=0.037&size=256&...
+// so a copied link or a reload starts the same run (same model, parameters, grid, boundary,
+// scheme, initial condition and seed) with the same view. Pasted equations travel as `eq`.
+// Everything read back goes to the server's checks like any control's value.
+
+const VIEW = { cmap: 'cmap', species: 'show', steps_per_frame: 'spf' };
+
+// the query string of a live state (the server's describe()) and the model spec
+export function encodeState(state, spec) {
+  const q = new URLSearchParams();
+  if (spec.library) q.set('model', spec.library);
+  else q.set('eq', spec.equations);
+  for (const [name, v] of Object.entries(state.params)) q.set(`p.${name}`, String(v));
+  q.set('dt', String(state.dt));
+  q.set('size', String(state.size));
+  if (state.height !== state.size) q.set('height', String(state.height));
+  q.set('boundary', state.boundary);
+  q.set('scheme', state.scheme);
+  q.set('init', state.init);
+  q.set('seed', String(state.seed));
+  for (const [key, short] of Object.entries(VIEW)) {
+    const v = key === 'species' ? state.show : state[key];
+    q.set(short, String(v));
+  }
+  if (Array.isArray(state.range)) q.set('range', state.range.join(','));
+  return q.toString();
+}
+
+// settings for Explore.load() from a query string; null when it names no model
+export function decodeSettings(query) {
+  const q = new URLSearchParams(query);
+  const model = q.get('model') ? { library: q.get('model') }
+    : (q.get('eq') ? { equations: q.get('eq') } : null);
+  if (!model) return null;
+  const params = {};
+  for (const [k, v] of q) if (k.startsWith('p.')) params[k.slice(2)] = Number(v);
+  const num = (k) => (q.has(k) ? Number(q.get(k)) : undefined);
+  const view = {};
+  for (const [key, short] of Object.entries(VIEW)) {
+    if (q.has(short)) view[key] = key === 'steps_per_frame' ? Number(q.get(short)) : q.get(short);
+  }
+  if (q.has('range')) view.range = q.get('range').split(',').map(Number);
+  return {
+    model, params, dt: num('dt'), size: num('size'), height: num('height') ?? num('size'),
+    boundary: q.get('boundary') ?? undefined, scheme: q.get('scheme') ?? undefined,
+    init: q.get('init') ?? undefined, seed: num('seed'), view,
+  };
+}
+
+// the query part of the address's #explore?... (empty when there is none)
+export function currentQuery() {
+  const hash = window.location.hash;
+  const at = hash.indexOf('?');
+  return at < 0 ? '' : hash.slice(at + 1);
+}

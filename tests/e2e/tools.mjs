@@ -1,0 +1,140 @@
+// Steps of browser.mjs's scenarios for Explore's tools and the Runs page's actions: the page
+// address as state, the value readout and colour bar, undo of strokes, scheme and rectangular
+// grids, recording, resuming and deleting runs, and the speed figures of docs/web.md.
+
+import { join } from 'node:path';
+
+const x = (page, f) => page.evaluate(f);
+const frames = (page) => x(page, () => window.morphogenExplore.frames);
+
+async function nextFrame(page, timeout = 60000) {
+  const f = await frames(page);
+  await page.waitForFunction((s) => window.morphogenExplore.frames > s && !window.morphogenExplore.inflight, f, { timeout });
+}
+
+// the address holds the settings: a reload comes back with them
+export async function urlState(page) {
+  await page.selectOption('#ex-cmap', 'magma');
+  await page.waitForFunction(() => window.morphogenExplore.state.cmap === 'magma');
+  const hash = await x(page, () => window.location.hash);
+  const before = await x(page, () => window.morphogenExplore.state);
+  await page.reload();
+  await page.waitForFunction(() => window.morphogenExplore?.frames >= 2
+    && window.morphogenExplore.state?.cmap === 'magma' && window.morphogenExplore.lut, null, { timeout: 60000 });
+  const after = await x(page, () => window.morphogenExplore.state);
+  return { hash, urlBefore: { F: before.params.F, cmap: before.cmap, dt: before.dt, size: before.size },
+    urlAfter: { F: after.params.F, cmap: after.cmap, dt: after.dt, size: after.size },
+    hashAfter: await x(page, () => window.location.hash) };
+}
+
+// hover at a fraction of the canvas; the readout the page shows for it
+async function hover(page, fx, fy) {
+  const box = await page.locator('#ex-canvas').boundingBox();
+  await page.mouse.move(box.x + box.width * fx + 1, box.y + box.height * fy + 1);
+  await page.mouse.move(box.x + box.width * fx, box.y + box.height * fy);
+  await page.waitForFunction(() => !window.morphogenExplore.tools.probing);
+  await page.waitForTimeout(150);
+  await page.waitForFunction(() => !window.morphogenExplore.tools.probing);
+  return x(page, () => ({ ...window.morphogenExplore.tools.readout, text: document.getElementById('ex-readout').textContent }));
+}
+
+// after two strokes on a uniform start: the readout, the colour bar, then U twice undoes both
+export async function readoutAndUndo(page) {
+  const painted = await hover(page, 0.25, 0.25);
+  const bar = await x(page, () => {
+    const c = document.getElementById('ex-cb').getContext('2d').getImageData(255, 0, 1, 1).data;
+    const lut = window.morphogenExplore.lut;
+    return { lo: document.getElementById('ex-cb-lo').textContent, hi: document.getElementById('ex-cb-hi').textContent,
+      last: [window.morphogenExplore.last.lo, window.morphogenExplore.last.hi],
+      top: [c[0], c[1], c[2]], lutTop: [lut[765], lut[766], lut[767]] };
+  });
+  const undoLabel = await page.textContent('#ex-undo');
+  await page.evaluate(() => document.activeElement?.blur());
+  for (let i = 0; i < 2; i += 1) {
+    const f = await frames(page);
+    await page.keyboard.press('u');
+    await page.waitForFunction((s) => window.morphogenExplore.frames > s && !window.morphogenExplore.inflight, f);
+  }
+  const undone = await hover(page, 0.25, 0.25);
+  const undoneDrag = await hover(page, 0.75, 0.75);
+  return { paintedReadout: painted, bar, undoLabel, undone, undoneDrag, undoDisabled: await page.isDisabled('#ex-undo') };
+}
+
+// a 256 x 128 grid under IMEX, recorded for a dozen frames and downloaded as a GIF
+export async function rectangleImexRecording(page, out) {
+  await page.selectOption('#ex-height', '128');
+  await page.waitForFunction(() => window.morphogenExplore.state.height === 128 && window.morphogenExplore.frames >= 2, null, { timeout: 60000 });
+  await page.selectOption('#ex-scheme', 'imex');
+  await page.waitForFunction(() => window.morphogenExplore.state.scheme === 'imex', null, { timeout: 60000 });
+  await nextFrame(page);
+  const canvas = await x(page, () => [window.morphogenExplore.canvas.width, window.morphogenExplore.canvas.height]);
+  const box = await page.locator('#ex-canvas').boundingBox();
+  await page.click('#ex-record');
+  const f0 = await frames(page);
+  await page.waitForFunction((s) => window.morphogenExplore.frames >= s + 12, f0, { timeout: 60000 });
+  await page.click('#ex-record');
+  await page.waitForSelector('#ex-recorded:not([hidden])');
+  const recordedLabel = await x(page, () => window.morphogenExplore.tools.recorded);
+  const [gif] = await Promise.all([page.waitForEvent('download'), page.click('#ex-save-gif')]);
+  await gif.saveAs(join(out, 'recording.gif'));
+  return { canvas, shownRatio: box.width / box.height, recordedLabel, gif: gif.suggestedFilename(),
+    scheme: await x(page, () => window.morphogenExplore.state.scheme) };
+}
+
+// frames per second over `ms`, counted in the page
+async function fps(page, ms = 2500) {
+  const f0 = await frames(page);
+  const t0 = Date.now();
+  await page.waitForTimeout(ms);
+  return ((await frames(page)) - f0) / ((Date.now() - t0) / 1000);
+}
+
+// docs/web.md's figures: frames/s at 256² and 128² (32 steps per frame) and the time from
+// choosing a model in the menu to its first frame, the first time and again
+export async function measure(page) {
+  const out = {};
+  await page.selectOption('#ex-steps', '32');
+  await page.waitForFunction(() => window.morphogenExplore.state.steps_per_frame === 32);
+  await nextFrame(page);
+  out.fps256 = await fps(page);
+  await page.selectOption('#ex-size', '128');
+  await page.waitForFunction(() => window.morphogenExplore.state.size === 128 && window.morphogenExplore.frames >= 2, null, { timeout: 60000 });
+  await page.selectOption('#ex-steps', '32');
+  await page.waitForFunction(() => window.morphogenExplore.state.steps_per_frame === 32);
+  await nextFrame(page);
+  out.fps128 = await fps(page);
+  const switchTo = async (name) => {
+    const t0 = Date.now();
+    await page.selectOption('#ex-model', name);
+    await page.waitForFunction((n) => window.morphogenExplore.state?.model === n && window.morphogenExplore.last
+      && window.morphogenExplore.frames >= 1, name, { timeout: 120000 });
+    const f = await frames(page);
+    await page.waitForFunction((s) => window.morphogenExplore.frames > s, f, { timeout: 120000 });
+    return (Date.now() - t0) / 1000;
+  };
+  out.switchFirst = await switchTo('brusselator');
+  out.switchBack = await switchTo('gray-scott');
+  out.switchAgain = await switchTo('brusselator');
+  return out;
+}
+
+// Runs page: resume the stopped run on the Evolve page, stop it, then delete it after the
+// confirmation dialog
+export async function resumeAndDelete(page, base, run) {
+  await page.click('#runs-resume');
+  await page.waitForFunction((id) => window.location.hash === '#evolve'
+    && window.morphogenEvolve?.status?.run === id && window.morphogenEvolve.status.state === 'choose'
+    && document.querySelectorAll('#ev-grid .tile').length === 6, run, { timeout: 120000 });
+  const resumedGen = await x(page, () => window.morphogenEvolve.status.gen);
+  await page.click('#ev-stop');
+  await page.waitForFunction(() => window.morphogenEvolve.status.state === 'stopped', null, { timeout: 60000 });
+  await page.goto(`${base}#runs`);
+  await page.click(`tr[data-run="${run}"]`);
+  await page.waitForSelector('#runs-delete');
+  let dialog = '';
+  page.once('dialog', (d) => { dialog = d.message(); d.accept(); });
+  await page.click('#runs-delete');
+  await page.waitForSelector('#runs-deleted');
+  const listed = await x(page, () => [...document.querySelectorAll('tr[data-run]')].map((tr) => tr.dataset.run));
+  return { resumedGen, dialog, listedAfterDelete: listed };
+}
