@@ -7,7 +7,7 @@ parameters, initial values, boundary values or the anisotropy direction. ::
     [mesh]
     shape = "tube"                # petal | corolla | tube (morphogen.flowers), or file = "x.ply"
     lobes = 5
-    edge = 0.02
+    edge = 0.08                   # mean edge of the final mesh, after scale
     scale = 4.0                   # optional uniform scale of the generated shape
 
     [[stage]]                     # positional information: g = 1 on the margin, 0 at the throat
@@ -113,30 +113,34 @@ def load_pipeline(path: str | Path) -> dict[str, Any]:
 
 def build_mesh(spec: Mapping[str, Any], base: Path = Path(".")) -> Mesh:
     """The mesh of a ``[mesh]`` table: ``file = "x.ply"`` or ``shape = ...`` with the
-    generator's keyword arguments, and an optional uniform ``scale``."""
+    generator's keyword arguments, and an optional uniform ``scale``. ``edge`` is the mean edge
+    of the final mesh, after ``scale`` (as ``morphogen mesh make --edge``); a shape whose
+    estimated vertex count is absurd is refused before meshing
+    (:func:`morphogen.flowers.sizing.make_shape`)."""
     from morphogen import flowers
+    from morphogen.flowers.sizing import make_shape
     from morphogen.mesh_io import load_mesh
 
     args = dict(spec)
-    scale = float(args.pop("scale", 1.0))
+    scale = args.pop("scale", 1.0)
     if "file" in args:
         mesh = load_mesh(base / args.pop("file"))
         if args:
             raise MorphogenError(f"[mesh] with file takes only scale; got {sorted(args)}")
-    else:
-        shape = args.pop("shape", None)
-        if shape not in flowers.SHAPES:
-            raise MorphogenError(f"[mesh] needs file = ... or shape = one of "
-                                 f"{', '.join(flowers.SHAPES)}")
-        try:
-            mesh = getattr(flowers, shape)(**args)
-        except TypeError as exc:
-            raise MorphogenError(f"[mesh] {shape}: {exc}") from None
-    if scale != 1.0:
-        if not (np.isfinite(scale) and scale > 0):
-            raise MorphogenError(f"[mesh] scale must be positive, got {scale}")
-        mesh = mesh.replace(vertices=mesh.vertices * scale)
-    return mesh
+        if scale != 1.0:
+            if isinstance(scale, bool) or not isinstance(scale, int | float) or not (
+                    np.isfinite(scale) and scale > 0):
+                raise MorphogenError(f"[mesh] scale must be positive, got {scale!r}")
+            mesh = mesh.replace(vertices=mesh.vertices * float(scale))
+        return mesh
+    shape = args.pop("shape", None)
+    if shape not in flowers.SHAPES:
+        raise MorphogenError(f"[mesh] needs file = ... or shape = one of "
+                             f"{', '.join(flowers.SHAPES)}")
+    try:
+        return make_shape(shape, edge=args.pop("edge", 0.02), scale=scale, **args)
+    except MorphogenError as exc:
+        raise MorphogenError(f"[mesh] {exc}") from None
 
 
 def evaluate(text: Any, mesh: Mesh) -> np.ndarray:

@@ -23,7 +23,7 @@ def flower(tmp_path_factory):
     size (a spot, sqrt(D_a/mu_a) = 0.03 across, needs them), 21 seeds for a quarter of the area,
     and the shipped dt and steps."""
     spec = load_pipeline(EXAMPLE)
-    spec["mesh"] = {**spec["mesh"], "edge": 0.03, "scale": 0.75}
+    spec["mesh"] = {**spec["mesh"], "edge": 0.0225, "scale": 0.75}
     spec["stage"][2]["count"] = 21
     return run_pipeline(spec, tmp_path_factory.mktemp("digitalis"))
 

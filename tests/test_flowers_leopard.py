@@ -21,7 +21,7 @@ def flower(tmp_path_factory):
     """The pipeline on a flower 2.5 units across instead of 11.8 with the shipped mean edge
     (0.035, so the same dt), fewer attraction points, and 2 000 of the 6 900 steps."""
     spec = load_pipeline(EXAMPLE)
-    spec["mesh"] = {**spec["mesh"], "scale": 2.5, "edge": 0.035 / 2.5}
+    spec["mesh"] = {**spec["mesh"], "scale": 2.5, "edge": 0.035}
     spec["stage"][0]["points"] = 2500
     spec["stage"][3]["steps"] = 2000
     return run_pipeline(spec, tmp_path_factory.mktemp("leopard"))

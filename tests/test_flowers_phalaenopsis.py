@@ -36,7 +36,7 @@ def runs(tmp_path_factory):
     out = {}
     for steps in (30, 175):
         spec = load_pipeline(EXAMPLE)
-        spec["mesh"] = {**spec["mesh"], "edge": 0.012, "scale": 100.0}
+        spec["mesh"] = {**spec["mesh"], "edge": 1.2, "scale": 100.0}
         spec["stage"][0]["count"] = 800
         spec["stage"][1]["steps"] = steps
         out[steps] = run_pipeline(spec, tmp_path_factory.mktemp(f"phal{steps}"))

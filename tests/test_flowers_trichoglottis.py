@@ -23,7 +23,7 @@ def _petal(swap: bool) -> dict:
     shortens the stripe spacing to ~2.6 units and the time to form them to 3 000 steps of 0.1."""
     params = {"rho": 0.04, **(SWAPPED if swap else {})}
     return {"base": EXAMPLES, "seed": 3, "view": "top",
-            "mesh": {"shape": "petal", "edge": 0.025, "scale": 24.0, "width": 0.8},
+            "mesh": {"shape": "petal", "edge": 0.6, "scale": 24.0, "width": 0.8},
             "stage": [{"name": "t", "kind": "simulate", "model": "trichoglottis-turing.toml",
                        "directions": "s", "params": params, "steps": 3000, "dt": 0.1,
                        "init": "noise", "show": "v"}]}
@@ -64,7 +64,7 @@ def test_stripes_run_across_the_tepal_only_with_fast_proximo_distal_diffusion(tm
 
 def test_phase2_holds_the_distal_margin_and_starts_from_phase1(tmp_path) -> None:
     spec = load_pipeline(EXAMPLE)
-    spec["mesh"] = {**spec["mesh"], "edge": 0.04, "scale": 15.0}
+    spec["mesh"] = {**spec["mesh"], "edge": 0.6, "scale": 15.0}
     spec["stage"][1]["steps"] = 200
     spec["stage"][2]["steps"] = 20
     out = tmp_path / "tri"

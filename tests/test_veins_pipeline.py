@@ -110,7 +110,7 @@ def test_dianthus_example_at_reduced_size(tmp_path):
     from morphogen.pipeline import load_pipeline
 
     spec = load_pipeline("examples/flowers/dianthus.toml")
-    spec["mesh"]["edge"] = 0.035
+    spec["mesh"]["edge"] = 0.175  # final units (scale 5)
     spec["stage"][0].update(points=600, step=0.3, kill=0.7, influence=3.0)
     spec["stage"][2].update(steps=300, dt=1e-3, omega=1e9)  # t = 0.3, as 3 000 steps of 1e-4
     mesh = run_pipeline(spec, tmp_path / "out")

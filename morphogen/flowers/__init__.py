@@ -16,10 +16,14 @@ from morphogen.flowers.sampling import random_vertices as random_vertices
 from morphogen.flowers.sampling import seed_field as seed_field
 from morphogen.flowers.sampling import surface_points as surface_points
 from morphogen.flowers.shapes import SHAPES as SHAPES
+from morphogen.flowers.shapes import bell as bell
 from morphogen.flowers.shapes import corolla as corolla
 from morphogen.flowers.shapes import petal as petal
 from morphogen.flowers.shapes import tube as tube
+from morphogen.flowers.shapes import two_lipped as two_lipped
 from morphogen.flowers.shapes import urn as urn
+from morphogen.flowers.sizing import estimate_vertices as estimate_vertices
+from morphogen.flowers.sizing import make_shape as make_shape
 from morphogen.flowers.veins import VeinGraph as VeinGraph
 from morphogen.flowers.veins import space_colonisation as space_colonisation
 from morphogen.flowers.veins import vein_fields as vein_fields

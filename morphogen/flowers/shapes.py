@@ -15,6 +15,8 @@ tube          fields ``s`` (0 base, 1 at the mouth of the tube, >1 on the lobes)
               ``side`` (``sin theta``: -1 lower, +1 upper), ``lobe``; sets ``margin``,
               ``base``, ``throat``, ``tube``, ``midline``
 urn           as ``tube``: a bulging body narrowing to the mouth, small recurved lobes
+bell          as ``tube``: a wide bell opening into broad lobes (Platycodon)
+two_lipped    as ``tube``: small upper lobes, large lower ones (Digitalis, Mimulus)
 ============  ==========================================================================
 """
 
@@ -28,7 +30,7 @@ from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
 from morphogen.flowers.meshing import triangulate
 
-SHAPES = ("petal", "corolla", "tube", "urn", "urn_flower", "orchid")
+SHAPES = ("petal", "corolla", "tube", "urn", "bell", "two_lipped", "urn_flower", "orchid")
 """Shapes a pipeline's ``[mesh] shape`` accepts (``urn_flower`` and ``orchid``:
 :mod:`morphogen.flowers.organs`)."""
 
@@ -306,3 +308,52 @@ def urn(
     # the lobes are fused over their first 30 % (no sinus down to the mouth itself)
     return _revolve(s, rho, z, s_body[-1], s_body[-1] + 0.3 * lobe_length, 0.7 * lobe_length,
                     lobes=lobes, notch=notch, lobe_scales=None, edge=edge, name=f"urn-{lobes}")
+
+
+def bell(
+    lobes: int = 5,
+    length: float = 0.7,
+    *,
+    radius: float = 0.18,
+    mouth: float = 0.55,
+    flare: float = 62.0,
+    bend: float = 0.3,
+    lobe_length: float = 0.55,
+    notch: float = 0.0,
+    edge: float = 0.02,
+) -> Mesh:
+    """A bell-shaped, partially fused corolla (Platycodon, Ringham §4.1): a :func:`tube` that
+    widens from ``radius`` to a wide ``mouth`` and opens by ``flare`` degrees into ``lobes``
+    broad, un-notched lobes. Fields and sets as for :func:`tube`."""
+    mesh = tube(lobes, length, radius, mouth=mouth, lobe_length=lobe_length, edge=edge,
+                flare=flare, bend=bend, notch=notch)
+    return mesh.replace(name=f"bell-{lobes}")
+
+
+def two_lipped(
+    lobes: int = 5,
+    length: float = 0.9,
+    *,
+    upper: float = 0.7,
+    lower: float = 1.2,
+    radius: float = 0.22,
+    mouth: float | None = None,
+    flare: float = 45.0,
+    bend: float = 0.25,
+    lobe_length: float = 0.35,
+    notch: float = 0.05,
+    edge: float = 0.02,
+) -> Mesh:
+    """A two-lipped tube (Digitalis, Mimulus; Ringham §4.5-4.6): a :func:`tube` whose lobes
+    pointing up (``sin theta_k > 0.1`` for lobe ``k`` at ``theta_k = 2 pi k / lobes``, lobe 0
+    along +x) are scaled by ``upper`` and the others (the lower lip) by ``lower``; five lobes
+    give two upper and three lower. Fields and sets as for :func:`tube` (``side`` < 0 on the
+    lower side)."""
+    _check(edge, upper=upper, lower=lower)
+    if not (isinstance(lobes, int | np.integer) and 2 <= lobes <= 40):
+        raise MorphogenError(f"lobes must be an integer from 2 to 40, got {lobes}")
+    theta = 2.0 * np.pi * np.arange(lobes) / lobes
+    scales = np.where(np.sin(theta) > 0.1, upper, lower)
+    mesh = tube(lobes, length, radius, mouth=mouth, lobe_length=lobe_length,
+                lobe_scales=scales.tolist(), edge=edge, flare=flare, bend=bend, notch=notch)
+    return mesh.replace(name=f"two-lipped-{lobes}")

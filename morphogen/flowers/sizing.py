@@ -1,0 +1,89 @@
+"""A named flower shape at a given edge length in final mesh units, refused before meshing when
+it would be absurdly large.
+
+``mesh make`` and a pipeline's ``[mesh]`` table both describe a shape by its generator
+arguments, an ``edge`` and a uniform ``scale``; both mean by ``edge`` the mean edge length of
+the final, scaled mesh (Ringham et al. §3.2 give mesh sizes as triangle counts of the final
+flower). The generator therefore runs at ``edge / scale`` and its vertices are multiplied by
+``scale``.
+
+Before meshing, the vertex count is estimated from the area ``A`` of the same shape meshed
+coarsely (at scale 1): a near-equilateral mesh of edge ``e`` has faces of area
+``sqrt(3)/4 e^2`` and about half as many vertices as faces, so
+
+.. math:: V \\approx \\frac{2 A}{\\sqrt 3\\, e^2}
+
+(interior vertices have six neighbours; the boundary adds a few per cent). Requests over
+:data:`~morphogen.flowers.meshing.MAX_VERTICES` are refused with the estimate.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from morphogen.domains.mesh import Mesh
+from morphogen.errors import MorphogenError
+from morphogen.flowers.meshing import MAX_VERTICES
+
+_COARSE = (0.03, 0.01)
+"""Edges (scale 1) tried for the area estimate, coarsest first: a shape may refuse an edge that
+is too coarse for its smallest part."""
+
+
+def _generator(shape: str):
+    from morphogen import flowers
+
+    if shape not in flowers.SHAPES:
+        raise MorphogenError(f"unknown shape {shape!r}; use one of {', '.join(flowers.SHAPES)}")
+    return getattr(flowers, shape)
+
+
+def _call(shape: str, edge: float, options: dict[str, Any]) -> Mesh:
+    try:
+        return _generator(shape)(edge=edge, **options)
+    except TypeError as exc:
+        raise MorphogenError(f"{shape}: {exc}") from None
+
+
+def estimate_vertices(shape: str, edge: float, **options: Any) -> int:
+    """About how many vertices ``shape`` has at mean edge ``edge`` (scale 1), from the area of a
+    coarse mesh of the same shape; exact (the coarse mesh itself) when ``edge`` is coarse."""
+    if edge >= _COARSE[0]:
+        return _call(shape, edge, options).n_vertices
+    for coarse in _COARSE:
+        try:
+            area = float(_call(shape, coarse, options).areas.sum())
+            break
+        except MorphogenError:
+            if coarse == _COARSE[-1]:
+                raise
+    return int(round(2.0 * area / (np.sqrt(3.0) * edge**2)))
+
+
+def make_shape(shape: str, *, edge: float, scale: float = 1.0, **options: Any) -> Mesh:
+    """The generator ``shape`` of :mod:`morphogen.flowers` with mean edge ``edge`` after a
+    uniform ``scale``; the estimated vertex count must not exceed ``MAX_VERTICES``.
+
+    Raises:
+        MorphogenError: unknown shape or option, a non-positive ``edge`` or ``scale``, or a
+            request whose estimate is over the limit (the message gives the estimate and the
+            smallest edge that fits).
+    """
+    for label, value in (("edge", edge), ("scale", scale)):
+        if isinstance(value, bool) or not isinstance(value, int | float) or not (
+                np.isfinite(value) and value > 0):
+            raise MorphogenError(f"{label} must be a positive number, got {value!r}")
+    # rounded to 12 digits, so that e.g. edge 0.6 at scale 24 meshes exactly as 0.025 at scale 1
+    local = float(f"{float(edge) / float(scale):.12g}")
+    count = estimate_vertices(shape, local, **options)
+    if count > MAX_VERTICES:
+        smallest = float(edge) * np.sqrt(count / MAX_VERTICES)
+        raise MorphogenError(
+            f"{shape} with edge {edge:g} (mesh units after scale {scale:g}) would have about "
+            f"{count:,} vertices, over the limit of {MAX_VERTICES:,}; use edge >= {smallest:.3g}")
+    mesh = _call(shape, local, options)
+    if scale != 1.0:
+        mesh = mesh.replace(vertices=mesh.vertices * float(scale))
+    return mesh
