@@ -79,9 +79,9 @@ class RunSchema(BaseModel):
         if self.steps is not None and self.time is not None:
             raise ValueError("give either steps or time, not both")
         if self.cmap is not None:
-            from morphogen.render import parse_cmap
+            from morphogen.render.colour import check_cmap
 
-            parse_cmap(self.cmap)
+            check_cmap(self.cmap)
         return self
 
 

@@ -62,7 +62,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--clamp", metavar="LO:HI|none", help="bound values after each step")
     p.add_argument("--every", type=options.positive_int, help="snapshot every N steps")
     p.add_argument("--species", help="species to draw (default: the model's display species)")
-    p.add_argument("--cmap", default=None, help="matplotlib colormap or ramp '#000,#f80,#fff'")
+    p.add_argument("--cmap", default=None,
+                   help="matplotlib colormap, ramp '#000,#f80,#fff', or transfer function "
+                   "'step: #fff < 0.5 < #a00', 'ramp: 0 #fff, 0.3 #f80, 1 #000'")
     p.add_argument("--vmin", type=float, help="colour scale minimum")
     p.add_argument("--vmax", type=float, help="colour scale maximum")
     p.add_argument("--threshold", type=float, help="two-colour map split at this value")

@@ -12,6 +12,10 @@ A *transfer function* maps a scalar field to RGB. Three kinds are provided:
   function mapping morphogen values to pigment colors" of Ringham et al. §4.3 (*Primula*) and
   the user-defined colour maps of their §3.5.
 
+Colour-map strings starting with ``step:`` or ``ramp:`` are transfer functions at absolute
+values (:mod:`morphogen.render.transfer`), accepted by :func:`colourise` and so by every
+``cmap`` of pipelines and the command line.
+
 All functions take NumPy arrays of any shape ``(...)`` (a 2D grid ``(H, W)``, a 3D grid
 ``(D, H, W)``, a stack of snapshots ``(F, H, W)`` or per-vertex values ``(V,)``) and return
 ``uint8`` RGB of shape ``(..., 3)``. Non-finite values (NaN, ±Inf — a blown-up simulation) are
@@ -28,6 +32,7 @@ import numpy as np
 from matplotlib.colors import Colormap, LinearSegmentedColormap, to_rgb
 
 from morphogen.errors import MorphogenError
+from morphogen.render.transfer import is_transfer, parse_transfer
 
 NAN_COLOUR = "#ff00ff"
 """Default colour for NaN and ±Inf cells: magenta, absent from the usual colour maps."""
@@ -141,6 +146,15 @@ def parse_cmap(spec: str | Colormap) -> Colormap:
         raise MorphogenError(f"unknown colour map {spec!r}: {_LIST_HINT}") from None
 
 
+def check_cmap(spec: str | Colormap) -> None:
+    """Raise :class:`MorphogenError` unless ``spec`` is a colour map, a ramp or a transfer
+    function (``step: ...``, ``ramp: ...``) that :func:`colourise` accepts."""
+    if is_transfer(spec):
+        parse_transfer(spec)
+    else:
+        parse_cmap(spec)
+
+
 def _transfer(spec: str | Colormap) -> Callable[[np.ndarray], np.ndarray]:
     """Normalised values ``(...)`` -> float RGB ``(..., 3)``; ramps are interpolated exactly."""
     if isinstance(spec, str) and "," in spec:
@@ -209,14 +223,20 @@ def colourise(
     Args:
         field: ``(...)`` real values, e.g. ``(H, W)``; NaN/±Inf allowed.
         cmap: a matplotlib colormap name or Colormap, or a colour ramp string
-            (``"#000,#f80,#fff"``, ``"0:#000,0.3:#f80,1:#fff"``; exact colours at the stops).
-        vmin, vmax: colour scale; each defaults to the min / max of the finite values.
+            (``"#000,#f80,#fff"``, ``"0:#000,0.3:#f80,1:#fff"``; exact colours at the stops),
+            or a transfer function at absolute values (``"step: #fff < 0.5 < #a00"``,
+            ``"ramp: 0 #fff, 0.3 #f4d6dc, 0.35 #c0143c, 1 #6e0019"``;
+            :mod:`morphogen.render.transfer`).
+        vmin, vmax: colour scale; each defaults to the min / max of the finite values
+            (ignored by transfer functions, whose levels are values of the field).
         nan_colour: colour of non-finite cells.
 
     Returns:
         ``(..., 3)`` uint8 RGB.
     """
     field = np.asarray(field, dtype=np.float64)
+    if is_transfer(cmap):
+        return _to_bytes(parse_transfer(cmap)(np.nan_to_num(field)), field, nan_colour)
     transfer = _transfer(cmap)
     t = normalise(field, vmin, vmax)
     rgb = transfer(np.nan_to_num(t, nan=0.0))
