@@ -45,7 +45,10 @@ const app = {
   async continueEvolve(run) {
     window.location.hash = '#evolve';
     await this.show('evolve');
-    await this.pages.evolve.attach(run);
+    const page = this.pages.evolve;
+    // a run the page shows as stopped and that was resumed since: read it afresh
+    if (page.status?.run === run && !['running', 'choose'].includes(page.status.state)) page.status = null;
+    await page.attach(run);
   },
 };
 

@@ -1,5 +1,6 @@
 // Runs: browse the archive shared with `morphogen evolve` and `morphogen runs` — runs,
-// generations with their contact sheets, best individuals; open any individual in Explore.
+// generations with their contact sheets, best individuals; open any individual in Explore;
+// resume a stopped or interrupted run, delete a run (after a confirmation).
 
 import { api, el, fmt, showError } from './api.js';
 
@@ -64,10 +65,18 @@ export class Runs {
         text: live.state === 'choose' ? 'Continue choosing on the Evolve page' : 'Follow on the Evolve page',
         onclick: () => this.app.continueEvolve(id),
       }) : null;
+      const resumable = !waiting && run.history.length < run.generations;
+      const actions = el('div', { class: 'toolbar' },
+        resumable ? el('button', { type: 'button', id: 'runs-resume', class: 'primary',
+          text: `Resume at generation ${run.history.length + 1} of ${run.generations}`,
+          onclick: () => this.resume(id) }) : null,
+        waiting ? null : el('button', { type: 'button', id: 'runs-delete', text: 'Delete run…',
+          onclick: () => this.remove(id) }));
       picker.addEventListener('change', () => this.generation(Number(picker.value)));
       this.detail.replaceChildren(...[
         el('h3', { text: `${run.model} · ${run.strategy} · ${run.fitness}` }),
         resume,
+        actions,
         el('p', { class: 'muted small', text: `genes: ${genes}; grid ${p.size.join('×')}, ${p.steps} steps of dt = ${fmt(p.dt)}, initial ${p.init}` }),
         run.fitness_plot ? el('img', { src: run.fitness_plot, alt: 'fitness over generations', class: 'sheet' }) : null,
         el('h4', { text: 'Best individuals' }),
@@ -81,6 +90,23 @@ export class Runs {
         picker.value = run.history[run.history.length - 1].gen;
         await this.generation(Number(picker.value));
       }
+    } catch (err) { showError(this.error, err.message); }
+  }
+
+  async resume(id) {
+    try {
+      await api(`/api/runs/${id}/resume`, { method: 'POST' });
+      await this.app.continueEvolve(id);
+    } catch (err) { showError(this.error, err.message); }
+  }
+
+  async remove(id) {
+    if (!window.confirm(`Delete run ${id}: its archive entry and its folder of pictures? This cannot be undone.`)) return;
+    try {
+      await api(`/api/runs/${id}`, { method: 'DELETE' });
+      this.run = null;
+      this.detail.replaceChildren(el('p', { class: 'muted', id: 'runs-deleted', text: `Deleted run ${id}.` }));
+      await this.refresh();
     } catch (err) { showError(this.error, err.message); }
   }
 
