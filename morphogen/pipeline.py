@@ -165,9 +165,11 @@ def run_pipeline(
     *,
     resume: bool = False,
     progress: bool = False,
+    pictures: bool = True,
 ) -> Mesh:
     """Run every stage in order; returns the mesh with all fields. Outputs are described in the
-    module docstring."""
+    module docstring; with ``pictures=False`` no stage renders its ``out.png`` or writes its
+    ``out.ply`` (for timing and tests), ``final.ply`` is still written."""
     from morphogen.mesh_io import save_ply
 
     spec = load_pipeline(pipeline) if isinstance(pipeline, str | Path) else pipeline
@@ -185,7 +187,8 @@ def run_pipeline(
         if cached is not None:
             fields, info["resumed"] = cached, True
         else:
-            fields, extra, colours = _run_stage(stage, mesh, spec, stage_dir, progress)
+            fields, extra, colours = _run_stage(stage, mesh, spec, stage_dir, progress,
+                                                pictures)
             info.update(extra)
             write_npz(stage_dir / "fields.npz", fields)
             write_json(stage_dir / "stage.json", stage)
@@ -213,7 +216,7 @@ def _cached(stage_dir: Path, stage: Mapping[str, Any]) -> dict[str, np.ndarray] 
         return None
 
 
-def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
+def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pictures: bool):
     """Returns ``(new fields, record entries, vertex colours or None)``."""
     from morphogen.flowers import positional_information, seed_field
 
@@ -226,7 +229,7 @@ def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
             source_value=float(stage.get("source_value", 1.0)),
             sink_value=float(stage.get("sink_value", 0.0)), decay=float(stage.get("decay", 0.0)))
         colours = _preview(stage_dir, mesh, g, stage.get("cmap", spec.get("cmap", "viridis")),
-                           view)
+                           view, pictures)
         return {name: g}, {}, colours
     if kind == "fields":
         table = stage.get("fields", {})
@@ -239,7 +242,7 @@ def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
             return new, {}, None
         shown = evaluate(stage["show"], mesh.with_fields(**new))
         return new, {}, _preview(stage_dir, mesh, shown,
-                                 stage.get("cmap", spec.get("cmap", "viridis")), view)
+                                 stage.get("cmap", spec.get("cmap", "viridis")), view, pictures)
     if kind == "points":
         density = stage.get("density")
         f = None if density is None else evaluate(density, mesh)
@@ -248,8 +251,8 @@ def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
                            seed=int(stage.get("seed", spec.get("seed", 0))))
         return {stage.get("field", "points"): field}, {}, None
     if kind == "veins":
-        return _veins_stage(stage, mesh, spec, stage_dir, view)
-    return _simulate_stage(stage, mesh, spec, stage_dir, progress)
+        return _veins_stage(stage, mesh, spec, stage_dir, view, pictures)
+    return _simulate_stage(stage, mesh, spec, stage_dir, progress, pictures)
 
 
 def grow_veins(stage: Mapping[str, Any], mesh: Mesh, seed: int = 0):
@@ -284,7 +287,7 @@ def _integer(stage: Mapping[str, Any], key: str, default: int) -> int:
     return int(value)
 
 
-def _veins_stage(stage, mesh: Mesh, spec, stage_dir: Path, view: Any):
+def _veins_stage(stage, mesh: Mesh, spec, stage_dir: Path, view: Any, pictures: bool):
     """Veins: fields ``vein``, ``vein_thickness``, ``vein_distance``; ``veins.npz`` graph; a
     preview of ``show`` (default ``vein_distance``) with the veins drawn over it."""
     from morphogen.render.colour import colourise
@@ -296,12 +299,14 @@ def _veins_stage(stage, mesh: Mesh, spec, stage_dir: Path, view: Any):
     shown = evaluate(stage.get("show", "vein_distance"), mesh.with_fields(**fields))
     colours = overlay_veins(colourise(shown, stage.get("cmap", spec.get("cmap", "viridis"))),
                             fields["vein"], fields["vein_thickness"])
-    write_png(stage_dir / "out.png", render_mesh(mesh.vertices, mesh.faces, colours, view=view))
+    if pictures:
+        write_png(stage_dir / "out.png", render_mesh(mesh.vertices, mesh.faces, colours,
+                                                     view=view))
     return fields, {"nodes": len(graph.nodes), "remaining_points": len(graph.remaining),
                     "max_order": int(graph.order.max())}, colours
 
 
-def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
+def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pictures: bool):
     """One simulation: model, parameters and initial values from fields, then outputs."""
     from morphogen.initial import make_initial
     from morphogen.mesh_io import apply_fields, write_mesh_outputs
@@ -346,9 +351,10 @@ def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
                    atol=stage.get("atol"))
     write_npz(stage_dir / "state.npz", {s: sol.state[i] for i, s in enumerate(model.species)})
     show = stage.get("show", model.display_species)
-    write_mesh_outputs(stage_dir, domain, model, sol.state,
-                       stage.get("cmap", spec.get("cmap", "viridis")), species=show,
-                       view=stage.get("view", spec.get("view", "oblique")))
+    if pictures:
+        write_mesh_outputs(stage_dir, domain, model, sol.state,
+                           stage.get("cmap", spec.get("cmap", "viridis")), species=show,
+                           view=stage.get("view", spec.get("view", "oblique")))
     from morphogen.render.colour import colourise
 
     colours = colourise(sol.state[model.species_index(show)],
@@ -359,11 +365,14 @@ def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool):
                     "wall_time": round(sol.wall_time, 3)}, colours
 
 
-def _preview(stage_dir: Path, mesh: Mesh, values: np.ndarray, cmap: Any, view: Any):
+def _preview(stage_dir: Path, mesh: Mesh, values: np.ndarray, cmap: Any, view: Any,
+             pictures: bool = True):
     from morphogen.render.colour import colourise
     from morphogen.render.images import write_png
     from morphogen.render.mesh import render_mesh
 
     colours = colourise(values, cmap)
-    write_png(stage_dir / "out.png", render_mesh(mesh.vertices, mesh.faces, colours, view=view))
+    if pictures:
+        write_png(stage_dir / "out.png", render_mesh(mesh.vertices, mesh.faces, colours,
+                                                     view=view))
     return colours

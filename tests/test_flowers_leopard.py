@@ -24,7 +24,7 @@ def flower(tmp_path_factory):
     spec["mesh"] = {**spec["mesh"], "scale": 2.5, "edge": 0.035}
     spec["stage"][0]["points"] = 2500
     spec["stage"][3]["steps"] = 2000
-    return run_pipeline(spec, tmp_path_factory.mktemp("leopard"))
+    return run_pipeline(spec, tmp_path_factory.mktemp("leopard"), pictures=False)
 
 
 def test_the_file_has_the_fig22_parameters_and_table1_steps() -> None:
