@@ -131,7 +131,7 @@ const SCENARIOS = {
     await page.mouse.down();
     await page.mouse.move(box.x + box.width * 0.9, box.y + box.height * 0.75, { steps: 10 });
     await page.mouse.up();
-    await page.waitForTimeout(500);
+    await page.waitForFunction(() => !window.morphogenExplore.tools.busy(), null, { timeout: 30000 });
     await step(page, 2);
     const painted = [await pixelAt(page, 0.25, 0.25), await pixelAt(page, 0.75, 0.75)];
     const untouched = await pixelAt(page, 0.75, 0.25);

@@ -45,7 +45,6 @@ export class Explore {
     this.pending = {}; // parameter changes not yet sent
     this.pendingExtra = {}; // dt not yet sent
     this.sending = false;
-    this.paintQueue = [];
     this.visible = true;
     this.lastQuery = null; // the address's query this page last wrote or loaded
     this.tools = new ExploreTools(this);
@@ -66,8 +65,7 @@ export class Explore {
     this.canvas = this.$('ex-canvas');
     this.ctx = this.canvas.getContext('2d');
     this.bindControls();
-    this.bindPainting();
-    this.tools.bind();
+    this.tools.bind(); // brush, readout, colour bar, recording
     const query = currentQuery();
     this.lastQuery = query;
     await this.load(decodeSettings(query) || { model: { library: 'gray-scott' } });
@@ -449,54 +447,6 @@ export class Explore {
       out[j] = lut[k]; out[j + 1] = lut[k + 1]; out[j + 2] = lut[k + 2]; out[j + 3] = 255;
     }
     this.ctx.putImageData(this.image, 0, 0);
-  }
-
-  // -- painting ----------------------------------------------------------------------------
-  bindPainting() {
-    let down = false;
-    let start = false; // the next point begins a stroke (one undo step)
-    const point = (ev) => {
-      const r = this.canvas.getBoundingClientRect();
-      const x = Math.min(Math.max((ev.clientX - r.left) / r.width, 0), 1);
-      const y = Math.min(Math.max((ev.clientY - r.top) / r.height, 0), 1);
-      this.paintQueue.push([x, y, start]);
-      start = false;
-      if (!this.paintTimer) this.paintTimer = setTimeout(() => this.flushPaint(), 30);
-    };
-    this.canvas.addEventListener('pointerdown', (ev) => {
-      down = true;
-      start = true;
-      this.canvas.setPointerCapture(ev.pointerId);
-      point(ev);
-    });
-    this.canvas.addEventListener('pointermove', (ev) => { if (down) point(ev); });
-    const up = () => { down = false; };
-    this.canvas.addEventListener('pointerup', up);
-    this.canvas.addEventListener('pointercancel', up);
-  }
-
-  async flushPaint() {
-    this.paintTimer = null;
-    // one request holds at most one stroke's start, as its first point
-    let n = 1;
-    while (n < Math.min(64, this.paintQueue.length) && !this.paintQueue[n][2]) n += 1;
-    const batch = this.paintQueue.splice(0, n);
-    if (this.paintQueue.length) this.paintTimer = setTimeout(() => this.flushPaint(), 30);
-    if (!batch.length || !this.sid) return;
-    const previous = this.paintDone;
-    let done;
-    this.paintDone = new Promise((resolve) => { done = resolve; });
-    try {
-      await previous; // strokes reach the server in order
-      const res = await api(`/api/live/${this.sid}/paint`, {
-        method: 'POST',
-        body: { points: batch.map(([x, y]) => [x, y]), stroke: batch[0][2],
-          radius: Number(this.$('ex-brush').value), mode: this.$('ex-paint-mode').value },
-      });
-      this.tools.setUndo(res.undo);
-      showError(this.$('ex-error'), '');
-      if (!this.running) this.request(true, true); // show the stroke while paused
-    } catch (err) { this.fail(err); } finally { done(); }
   }
 
   fail(err) {

@@ -1,6 +1,6 @@
-// Explore's tools around the picture: the colour bar (automatic or fixed range), the value
-// readout under the cursor, undo of brush strokes and recording the view as GIF/MP4.
-// `x` is the Explore page; requests go to its live simulation's routes.
+// Explore's tools around the picture: the brush (a stroke is one undo step), the colour bar
+// (automatic or fixed range), the value readout under the cursor, undo, and recording the view
+// as GIF/MP4. `x` is the Explore page; requests go to its live simulation's routes.
 
 import { api, fmt, showError } from './api.js';
 
@@ -12,10 +12,12 @@ export class ExploreTools {
     this.probing = false;
     this.probeAt = null;
     this.recorded = 0;
+    this.paintQueue = [];
   }
 
   bind() {
     const { $ } = this;
+    this.bindBrush();
     this.bar = $('ex-cb').getContext('2d');
     $('ex-range-mode').addEventListener('change', () => this.rangeMode());
     for (const id of ['ex-range-lo', 'ex-range-hi']) $(id).addEventListener('change', () => this.sendRange());
@@ -100,6 +102,60 @@ export class ExploreTools {
     if (this.probeAt && (this.probeAt[0] !== px || this.probeAt[1] !== py)) this.sendProbe();
   }
 
+  // -- brush: click or drag paints discs; each stroke is one undo step ------------------
+  bindBrush() {
+    let down = false;
+    let start = false; // the next point begins a stroke (one undo step)
+    const point = (ev) => {
+      const r = this.x.canvas.getBoundingClientRect();
+      const x = Math.min(Math.max((ev.clientX - r.left) / r.width, 0), 1);
+      const y = Math.min(Math.max((ev.clientY - r.top) / r.height, 0), 1);
+      this.paintQueue.push([x, y, start]);
+      start = false;
+      if (!this.paintTimer) this.paintTimer = setTimeout(() => this.flushPaint(), 30);
+    };
+    this.x.canvas.addEventListener('pointerdown', (ev) => {
+      down = true;
+      start = true;
+      this.x.canvas.setPointerCapture(ev.pointerId);
+      point(ev);
+    });
+    this.x.canvas.addEventListener('pointermove', (ev) => { if (down) point(ev); });
+    const up = () => { down = false; };
+    this.x.canvas.addEventListener('pointerup', up);
+    this.x.canvas.addEventListener('pointercancel', up);
+  }
+
+  // strokes not yet on the server (the end-to-end tests wait for none)
+  busy() {
+    return this.paintQueue.length > 0 || this.painting > 0 || Boolean(this.paintTimer);
+  }
+
+  async flushPaint() {
+    this.paintTimer = null;
+    // one request holds at most one stroke's start, as its first point
+    let n = 1;
+    while (n < Math.min(64, this.paintQueue.length) && !this.paintQueue[n][2]) n += 1;
+    const batch = this.paintQueue.splice(0, n);
+    if (this.paintQueue.length) this.paintTimer = setTimeout(() => this.flushPaint(), 30);
+    if (!batch.length || !this.x.sid) return;
+    const previous = this.paintDone;
+    this.painting = (this.painting || 0) + 1;
+    let done;
+    this.paintDone = new Promise((resolve) => { done = resolve; });
+    try {
+      await previous; // strokes reach the server in order
+      const res = await api(`/api/live/${this.x.sid}/paint`, {
+        method: 'POST',
+        body: { points: batch.map(([x, y]) => [x, y]), stroke: batch[0][2],
+          radius: Number(this.$('ex-brush').value), mode: this.$('ex-paint-mode').value },
+      });
+      this.setUndo(res.undo);
+      showError(this.$('ex-error'), '');
+      if (!this.x.running) this.x.request(true, true); // show the stroke while paused
+    } catch (err) { this.x.fail(err); } finally { this.painting -= 1; done(); }
+  }
+
   // -- undo ---------------------------------------------------------------------------------
   setUndo(n) {
     this.$('ex-undo').disabled = !(n > 0);
@@ -109,7 +165,7 @@ export class ExploreTools {
   async undo() {
     if (!this.x.sid) return;
     try {
-      await this.x.paintDone;
+      await this.paintDone;
       const res = await api(`/api/live/${this.x.sid}/undo`, { method: 'POST' });
       this.setUndo(res.undo);
       showError(this.$('ex-error'), '');
