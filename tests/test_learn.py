@@ -171,3 +171,43 @@ def test_a_new_run_records_the_extractor_auto_chose(monkeypatch):
     assert session.new_run(config, target).config.features == "random"
     monkeypatch.setattr(vgg, "find_vgg_weights", lambda: "weights.ckpt")
     assert session.new_run(config, target).config.features == "vgg"
+
+
+def test_pool_ageing_advances_the_batch_without_gradient_before_the_rollout():
+    """With R_age = 1 every iteration first advances the batch A = 5 steps, then rolls it out
+    n = 3 steps: the pool state written back (the one not replaced by a fresh seed) is its old
+    value after 8 steps of the still untrained rule (pure diffusion, W1 starts at zero)."""
+    from morphogen.learn.rollout import rollout
+    from morphogen.learn.train import make_train_step, template_model, training_grid
+    from morphogen.steppers import make_step
+
+    config = replace(TINY, pool_size=2, batch_size=2, min_steps=3, max_steps=3, seed_every=1000,
+                     age_every=1, age_steps=5)
+    state = init_state(config)
+    pool0 = np.asarray(state.pool)
+    loss = build_loss(config, synthetic_texture("dots", 24))
+    got = np.asarray(make_train_step(config)(state, loss)[0].pool)
+    step = make_step(template_model(config), training_grid(config))
+    p = {**init_state(config).weights, "r": 1.0, "d": 1.0}
+
+    def grown(j, n):
+        return np.asarray(rollout(step, jnp.asarray(pool0[j]), p, max_steps=n, chunk=n))
+
+    aged = [j for j in range(2) if np.allclose(got[j], grown(j, 8), atol=1e-6)]
+    assert len(aged) == 1
+    assert np.abs(got[aged[0]] - grown(aged[0], 3)).max() > 1e-3
+    assert preset("cpu").age_every > 0 and preset("paper").age_every == 0
+
+
+@pytest.mark.parametrize("kind", ["checker", "lined", "blotchy", "lizards", "labyrinth"])
+def test_synthetic_targets_tile_the_torus(kind):
+    """Each synthetic target is in [0, 1], not flat, and periodic: the jump across the seam
+    (last row/column to first) is no larger than the largest between neighbouring rows/columns
+    inside (a non-periodic drawing, e.g. stripes of a period that does not divide 64, fails)."""
+    img = synthetic_texture(kind, 64)
+    assert img.shape == (64, 64, 3) and img.min() >= 0 and img.max() <= 1
+    for axis in (0, 1):
+        steps = np.abs(np.diff(img, axis=axis, append=img.take([0], axis=axis)))
+        per_row = steps.mean(axis=(1 - axis, 2))
+        assert per_row[-1] <= 1.01 * per_row[:-1].max()
+    assert img.std() > 0.1

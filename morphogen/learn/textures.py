@@ -19,8 +19,10 @@ from morphogen.errors import MorphogenError
 from morphogen.models.model import Array
 from morphogen.render.images import to_uint8 as to_uint8
 
-SYNTHETIC = ("stripes", "dots")
-"""Names of the synthetic textures :func:`synthetic_texture` makes."""
+SYNTHETIC = ("stripes", "dots", "checker", "lined", "blotchy", "lizards", "labyrinth")
+"""Names of the synthetic textures :func:`synthetic_texture` makes (the targets of the shipped
+rules, :mod:`morphogen.models.neural_library`, in the spirit of seed 002's fig. 2; ``labyrinth``
+is the disordered counterpart of ``stripes`` that a drifting stripe rule turns into)."""
 
 
 def state_to_rgb(u: Array) -> Array:
@@ -115,32 +117,26 @@ def _exact(v: float) -> float:
 
 
 def synthetic_texture(kind: str, size: int = 64, seed: int = 0) -> np.ndarray:
-    """A periodic example texture, float RGB ``(size, size, 3)``.
+    """A periodic example texture, float RGB ``(size, size, 3)``; lengths scale with ``size``
+    (quoted here for ``size = 64``).
 
     - ``stripes``: dark blue stripes on cream, period ``size / 5`` along the lattice vector
       ``(3, 4)``, so they are oblique and tile the torus seamlessly.
     - ``dots``: red dots of radius ``size / 16`` on a pale background at jittered positions of a
       ``4 x 4`` lattice (periodic distances).
+    - ``checker``: dark brown and cream squares of side 8 with soft edges.
+    - ``lined``: thin grey-blue lines 8 apart on white, gently undulating.
+    - ``blotchy``: irregular ochre blotches on sand: periodic noise band-limited around
+      wavelength 16 and thresholded.
+    - ``lizards``: a ``4 x 4`` tiling of little green lizards (body, head, tail, four legs,
+      an eye), alternately turned by 90 degrees, on pale yellow.
+    - ``labyrinth``: the stripes' colours and period in a disordered maze (band-pass noise in a
+      thin ring at the stripes' wavenumber, thresholded).
     """
     if kind not in SYNTHETIC:
         raise MorphogenError(f"unknown synthetic texture {kind!r}; use one of {SYNTHETIC}")
-    y, x = np.meshgrid(np.arange(size), np.arange(size), indexing="ij")
-    if kind == "stripes":
-        phase = 2.0 * np.pi * (3 * x + 4 * y) / size
-        ink = 0.5 + 0.5 * np.tanh(3.0 * np.cos(phase))
-        background, colour = np.array([0.97, 0.93, 0.8]), np.array([0.1, 0.15, 0.45])
-    else:
-        rng = np.random.default_rng(seed)
-        spacing = size / 4.0
-        radius = size / 16.0
-        ink = np.zeros((size, size))
-        for i in range(4):
-            for j in range(4):
-                cy, cx = (np.array([i, j]) + 0.5 + rng.uniform(-0.2, 0.2, 2)) * spacing
-                dy = (y - cy + size / 2) % size - size / 2
-                dx = (x - cx + size / 2) % size - size / 2
-                r = np.hypot(dy, dx)
-                ink = np.maximum(ink, 0.5 - 0.5 * np.tanh(2.0 * (r - radius)))
-        background, colour = np.array([0.95, 0.95, 0.9]), np.array([0.8, 0.15, 0.1])
+    from morphogen.learn import targets
+
+    ink, background, colour = targets.INK[kind](size, seed)
     img = background * (1.0 - ink[..., None]) + colour * ink[..., None]
-    return img.astype(np.float32)
+    return np.clip(img, 0.0, 1.0).astype(np.float32)

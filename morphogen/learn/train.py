@@ -6,6 +6,7 @@
     for step = 1 .. N_train:
         batch <- N_batch random pool indices;  x <- pool[batch]
         if step mod R_seed = 0: x[0] <- a fresh seed state
+        if step mod R_age = 0: x <- RD_theta^A(x), without gradient      (pool ageing)
         for i = 1 .. Uniform(I_min, I_max): x <- RD_theta(x)
         loss <- calcLoss(x);  update theta with its gradient
         pool[batch] <- x
@@ -17,6 +18,20 @@ each weight array is normalised to unit norm before Adam (the "gradient normaliz
 Self-Organising Textures); the learning rate is 1e-3, multiplied by 0.2 at iterations 1000 and
 10000 in the paper preset. The rollout is rematerialised in chunks
 (:func:`morphogen.learn.rollout.rollout`), so memory stays bounded for long rollouts.
+
+**Pool ageing.** The paper's pool holds states of all ages because 20 000 iterations revisit
+each of its 1 024 states ~80 times (~5 000 steps). A run of a few hundred iterations does not:
+with 256 states, batch 4 and 48 steps per visit, a state is ~750 steps old at most, so the rule
+never sees what its pattern becomes after 5 000 steps and may let dots stretch into worms or
+stripes coarsen there. Every ``R_age`` iterations the batch is therefore first advanced ``A``
+steps without gradient (cheap: forward only, no rematerialisation), from iteration
+``age_start`` on (an untrained rule run that long blows up); with ``N_pool = 32`` a
+state is visited ``4 N_train / 32`` times and, at ``R_age = 4, A = 512``, ages by ~176 steps per
+visit: ~5 000 steps after 230 ageing iterations, while reseeding (one pool state every 32
+iterations) keeps young states in the pool. The
+loss then judges old states too, which is the long-horizon stability the paper's fig. 3 shows.
+Together with the overflow penalty (Self-Organising Textures) this is what lets a short CPU
+run keep its texture for 10 000 steps (measured in docs/neural-rd.md).
 """
 
 from __future__ import annotations
@@ -66,6 +81,9 @@ class TrainConfig:
         overflow_weight: weight of :func:`overflow_penalty`, which keeps states within
             ``[-overflow_limit, overflow_limit]`` (not in the paper; 0 disables it).
         overflow_limit: the bound above.
+        age_every, age_steps: ``R_age`` and ``A`` of pool ageing (see the module docstring;
+            ``age_every = 0`` disables it).
+        age_start: first iteration that ages: the rule must first learn to stay bounded.
         chunk: steps per rematerialised rollout chunk. Memory holds ``max_steps / chunk``
             states plus one chunk's intermediate values; 1 (every step rematerialised, only the
             states kept: 50 MB for the cpu preset, 0.8 GB for the paper's) measured fastest on
@@ -94,6 +112,9 @@ class TrainConfig:
     learn_diffusion: bool = False
     overflow_weight: float = 1.0
     overflow_limit: float = 1.0
+    age_every: int = 0
+    age_steps: int = 512
+    age_start: int = 0
     chunk: int = 1
     stencil: int = 9
     checkpoint_every: int = 50
@@ -109,6 +130,7 @@ class TrainConfig:
             "min_steps": 1 <= self.min_steps <= self.max_steps,
             "iterations": self.iterations >= 0,
             "seed_every": self.seed_every >= 1,
+            "age_every": self.age_every >= 0 and self.age_steps >= 0,
             "learning_rate": self.learning_rate > 0,
             "n_rot": self.n_rot >= 1,
             "chunk": self.chunk >= 1,
@@ -137,7 +159,7 @@ class TrainConfig:
 
 
 PRESETS: dict[str, TrainConfig] = {
-    "cpu": TrainConfig(),
+    "cpu": TrainConfig(pool_size=32, age_every=4, age_steps=512, age_start=100),
     "paper": TrainConfig(
         channels=32, hidden=128, size=128, pool_size=1024, batch_size=4, min_steps=32,
         max_steps=96, iterations=20000, seed_every=32, learning_rate=1e-3,
@@ -145,8 +167,9 @@ PRESETS: dict[str, TrainConfig] = {
         checkpoint_every=500, sample_every=1000,
     ),
 }
-"""``cpu``: a recognisable texture in minutes on two cores; ``paper``: seed 002's settings
-(n = 32, h = 128, 128 x 128, pool 1024, batch 4, 32-96 steps, 20 000 iterations)."""
+"""``cpu``: a recognisable texture in minutes on two cores, a small pool aged by long
+no-gradient rollouts; ``paper``: seed 002's settings (n = 32, h = 128, 128 x 128, pool 1024,
+batch 4, 32-96 steps, 20 000 iterations, no ageing: its length ages the pool)."""
 
 
 def preset(name: str, **overrides: Any) -> TrainConfig:
@@ -257,12 +280,17 @@ def make_train_step(config: TrainConfig) -> Callable[[TrainState, TextureLoss], 
     objective = make_objective(config)
     opt = optimizer(config)
     shape = (config.size, config.size)
+    age = _ager(config)
 
     def train_step(state: TrainState, loss: TextureLoss):
         key = jax.random.fold_in(state.key, state.iteration)
         k_idx, k_seed, k_len = jax.random.split(key, 3)
         idx = jax.random.choice(k_idx, config.pool_size, (config.batch_size,), replace=False)
         x = state.pool[idx]
+        if age is not None:
+            due = (state.iteration % config.age_every == config.age_every - 1) & (
+                state.iteration >= config.age_start)
+            x = jax.lax.cond(due, lambda u: age(state.weights, u), lambda u: u, x)
         fresh = seed_state(k_seed, config.channels, shape)
         reseed = state.iteration % config.seed_every == 0
         x = x.at[0].set(jnp.where(reseed, fresh, x[0]))
@@ -282,6 +310,34 @@ def make_train_step(config: TrainConfig) -> Callable[[TrainState, TextureLoss], 
         return new, {"loss": texture, "overflow": over, "steps": n_steps}
 
     return jax.jit(train_step, donate_argnums=0)
+
+
+AGE_BOUND = 4.0
+"""An aged state is kept only if every value stays within ``AGE_BOUND * overflow_limit``;
+otherwise the batch member keeps its unaged value. An early, unstable rule run for hundreds of
+steps without the overflow penalty's pull can blow up (loss 1e12 after 40 iterations when
+ageing began at iteration 3), and a pool of blown-up states trains nothing."""
+
+
+def _ager(config: TrainConfig) -> Callable | None:
+    """``(weights, x) -> x`` advanced ``age_steps`` steps without gradient (members that leave
+    ``[-AGE_BOUND, AGE_BOUND] * overflow_limit`` keep their old value), or ``None``."""
+    if config.age_every <= 0 or config.age_steps <= 0:
+        return None
+    step = make_step(template_model(config), training_grid(config))
+
+    def age(weights, x):
+        p = {**jax.lax.stop_gradient(weights), "r": 1.0, "d": 1.0}
+
+        def grow(u):
+            return rollout(step, u, p, max_steps=config.age_steps, chunk=config.age_steps)
+
+        aged = jax.vmap(grow)(x)
+        bound = AGE_BOUND * config.overflow_limit
+        sane = jnp.all(jnp.abs(aged) <= bound, axis=tuple(range(1, x.ndim)))  # NaN fails too
+        return jnp.where(sane.reshape((-1,) + (1,) * (x.ndim - 1)), aged, x)
+
+    return age
 
 
 def grow_samples(config: TrainConfig, weights: dict, count: int, steps: int, seed: int) -> Array:
