@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from morphogen.autoscheme import population_scheme
 from morphogen.errors import MorphogenError
 from morphogen.fields import resolve_params
 from morphogen.initial import make_initial
@@ -64,6 +65,7 @@ class Atlas:
         x, y: the axes.
         wall_time: seconds for the batched simulation.
         snapshots: with ``watch``, the last states, shape ``(NY, NX, T + 1, S, *spatial)``.
+        scheme: the scheme that ran (``auto`` resolved).
     """
 
     states: np.ndarray
@@ -72,6 +74,7 @@ class Atlas:
     y: Axis
     wall_time: float
     snapshots: np.ndarray | None = None
+    scheme: str = "euler"
 
 
 def compute_atlas(
@@ -115,6 +118,7 @@ def compute_atlas(
     sample.update({x.name: float(x.values.mean()), y.name: float(y.values.mean())})
     u0 = make_initial(init or model.init, model, domain, sample, seed=seed)
     u0 = np.broadcast_to(u0, (ny * nx, *u0.shape))
+    scheme = population_scheme(scheme, model, domain, batch, batched=True, where="the atlas")
     if not unsafe:
         check_stability(model, domain, batch, dt, scheme, batched=True)
     shape = (ny, nx)
@@ -134,6 +138,7 @@ def compute_atlas(
         y=y,
         wall_time=sol.wall_time,
         snapshots=snaps,
+        scheme=scheme,
     )
 
 

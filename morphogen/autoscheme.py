@@ -60,3 +60,17 @@ def choose_scheme(model: Model, domain: Any, params: Params, *, batched: bool = 
     except MorphogenError:
         return "euler"
     return STIFF_SCHEME if ratio > AUTO_RATIO else "euler"
+
+
+def population_scheme(scheme: str, model: Model, domain: Any, params: Params, *,
+                      batched: bool = False, where: str = "search") -> str:
+    """The fixed-step scheme a population (search, atlas) runs: ``auto`` resolved by
+    :func:`choose_scheme` on ``params``, ``adaptive`` refused with a one-line error (each member
+    would take its own steps, while a population advances in lock-step with one ``dt``)."""
+    if scheme == "auto":
+        return choose_scheme(model, domain, params, batched=batched)
+    if scheme == "adaptive":
+        raise MorphogenError(f"scheme adaptive runs one state at a time; {where} advances a "
+                             "population with one dt: use euler, rk4, imex, etdrk4 or auto")
+    return scheme
+

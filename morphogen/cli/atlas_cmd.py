@@ -30,6 +30,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--boundary", action="append", metavar="SPEC")
     p.add_argument("--stencil", choices=options.STENCILS,
                    help="Laplacian: stencil points, or spectral (periodic grids)")
+    p.add_argument("--scheme", choices=options.POPULATION_SCHEMES, default="euler",
+                   help="time stepper (imex, imex1, etdrk4: stiff diffusion on grids; auto: imex "
+                   "when stiff, else euler; see docs/schemes.md)")
     p.add_argument("--init", help="initial condition kind (default: the model's)")
     p.add_argument("--seed", type=options.seed, default=0)
     p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE")
@@ -74,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     atlas = compute_atlas(model, grid, x, y, params=options.assignments(args.param),
                           steps=steps, dt=dt, init=args.init, seed=args.seed,
                           progress=options.show_progress(args), unsafe=args.unsafe,
-                          watch=watch)
+                          watch=watch, scheme=args.scheme)
     fields = atlas.states[:, :, index]
     if fields.ndim == 5:
         fields = fields[:, :, fields.shape[2] // 2]
@@ -95,7 +98,8 @@ def run(args: argparse.Namespace) -> int:
     write_json(out / "atlas.json", {
         "model": model.name, "x": {"name": x.name, "values": x.values},
         "y": {"name": y.name, "values": y.values}, "size": list(grid.shape), "dt": dt,
-        "steps": steps, "seed": args.seed, "invalid": int((~atlas.valid).sum()),
+        "steps": steps, "scheme": atlas.scheme, "seed": args.seed,
+        "invalid": int((~atlas.valid).sum()),
         "wall_time_s": round(atlas.wall_time, 3), "families": families,
     })
     print(f"wrote {out}/atlas.png ({len(y.values)}x{len(x.values)} runs, "

@@ -52,7 +52,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="periodic | neumann | dirichlet=VALUE, or SPECIES=SPEC")
     p.add_argument("--stencil", choices=options.STENCILS,
                    help="Laplacian: stencil points, or spectral (periodic grids)")
-    p.add_argument("--scheme", choices=("euler", "rk4"), default="euler")
+    p.add_argument("--scheme", choices=options.POPULATION_SCHEMES, default="euler",
+                   help="time stepper (imex, imex1, etdrk4: stiff diffusion on grids; auto: imex "
+                   "when stiff, else euler; see docs/schemes.md)")
     p.add_argument("--init", metavar="KIND|FILE",
                    help="initial condition (default: the model's; Skaggs used 'skaggs')")
     p.add_argument("--init-opt", action="append", metavar="NAME=VALUE")

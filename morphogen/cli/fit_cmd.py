@@ -53,6 +53,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="steps per simulation (short-ish keeps the loss landscape smooth)")
     p.add_argument("--stencil", choices=options.STENCILS,
                    help="Laplacian: stencil points, or spectral (periodic grids)")
+    p.add_argument("--scheme", choices=options.POPULATION_SCHEMES, default="euler",
+                   help="time stepper (imex, imex1, etdrk4: stiff diffusion on grids; auto: imex "
+                   "when stiff, else euler; see docs/schemes.md)")
     p.add_argument("--init", metavar="KIND|FILE", help="initial condition (default: the model's)")
     p.add_argument("--init-opt", action="append", metavar="NAME=VALUE")
     p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE",
@@ -78,7 +81,8 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     return Problem(
         model=args.model, genes=genes, model_source=model.source, preset=args.preset,
         params=options.assignments(args.param), size=tuple(options.size(args.size)),
-        stencil=options.stencil(args.stencil), dt=dt, steps=args.steps, seed=args.seed,
+        stencil=options.stencil(args.stencil), dt=dt, steps=args.steps, scheme=args.scheme,
+        seed=args.seed,
         init=args.init or model.init,
         init_options=options.assignments(args.init_opt, "--init-opt"), fitness="target",
         target=str(Path(args.target).absolute()),

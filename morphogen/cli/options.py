@@ -61,6 +61,14 @@ def boundary(items: list[str] | None) -> Any:
     return per_species or whole
 
 
+SCHEMES = ("euler", "rk4", "imex1", "imex", "etdrk4", "adaptive", "auto")
+"""``--scheme`` choices (:data:`morphogen.steppers.SCHEMES` and ``RUN_SCHEMES``), listed here so
+that building the parser does not import JAX."""
+
+POPULATION_SCHEMES = tuple(s for s in SCHEMES if s != "adaptive")
+"""``--scheme`` choices of commands that advance a population with one ``dt`` (search, atlas):
+:func:`morphogen.autoscheme.population_scheme`."""
+
 STENCILS = ("5", "7", "9", "spectral")
 """``--stencil`` choices: points of a finite-difference stencil, or the spectral Laplacian."""
 

@@ -37,8 +37,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="periodic | neumann | dirichlet=VALUE, or SPECIES=SPEC (repeatable)")
     p.add_argument("--stencil", choices=options.STENCILS,
                    help="Laplacian: stencil points, or spectral (periodic grids)")
-    p.add_argument("--scheme", choices=("euler", "rk4", "imex1", "imex", "etdrk4", "adaptive",
-                                        "auto"), default=None,
+    p.add_argument("--scheme", choices=options.SCHEMES, default=None,
                    help="time stepper (imex, imex1, etdrk4: stiff diffusion on grids; adaptive: "
                    "error-controlled steps; auto: imex when stiff, else euler; see "
                    "docs/schemes.md)")

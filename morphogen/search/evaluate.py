@@ -31,6 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from morphogen.autoscheme import population_scheme
 from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
 from morphogen.fields import resolve_params
@@ -61,7 +62,9 @@ class Problem:
         preset, params: fixed parameter values (a preset, then overrides; numbers or
             expressions of ``x, y, z``, resolved with the model's default values).
         size, dx, boundary, stencil: the grid (:class:`morphogen.domains.grid.Grid`).
-        dt, steps, scheme: time stepping; ``clamp`` is ``"model"`` (the model's own bounds),
+        dt, steps, scheme: time stepping (``scheme`` any fixed-step scheme or ``auto``, chosen
+            once from the base parameters; ``adaptive`` is refused, since the population
+            advances with one ``dt``); ``clamp`` is ``"model"`` (the model's own bounds),
             ``None`` or ``[lo, hi]`` (Skaggs §3.2 clamps to ``[0, 5]``).
         seed, init, init_options: the initial condition
             (:func:`morphogen.initial.make_initial`); every individual starts from the same one
@@ -163,9 +166,10 @@ class Evaluator:
         self.domain.boundaries(self.model.species)
         values = self.model.parameters(dict(problem.params), preset=problem.preset)
         self.base = resolve_params(self.model, self.domain, values)
-        check_stability(self.model, self.domain, self.base, problem.dt, problem.scheme)
+        self.scheme = population_scheme(problem.scheme, self.model, self.domain, self.base)
+        check_stability(self.model, self.domain, self.base, problem.dt, self.scheme)
         self.display = self.model.species_index(self.model.display_species)
-        self._step = make_step(self.model, self.domain, scheme=problem.scheme,
+        self._step = make_step(self.model, self.domain, scheme=self.scheme,
                                clamp=problem.clamp_bounds(self.model))
         self._score = self._fitness_fn()
 
@@ -224,7 +228,7 @@ class Evaluator:
 
     def stable(self, genomes: np.ndarray) -> np.ndarray:
         """Whether ``dt`` is within each individual's explicit stability limit, ``(P,)``."""
-        dt, scheme = self.problem.dt, self.problem.scheme
+        dt, scheme = self.problem.dt, self.scheme
         return np.array([
             dt <= max_stable_dt(self.model, self.domain, self.genome_parameters(g), scheme)
             for g in genomes

@@ -122,7 +122,7 @@ class GradientEvaluator:
 
     def _compile(self, chunk: int) -> Callable:
         base = self.base
-        step = make_step(base.model, base.domain, scheme=self.problem.scheme,
+        step = make_step(base.model, base.domain, scheme=base.scheme,
                          clamp=self.problem.clamp_bounds(base.model))
         names = [g.name for g in self.genes]
         display = self.base.display
