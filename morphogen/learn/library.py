@@ -15,7 +15,7 @@ script on the same platform reproduces the shipped weights.
 The settings are the ``cpu`` preset (n = 12, h = 64, pool ageing from the first iteration) on
 a 32 x 32 torus, starting from a rule of docs/neural-rd.md (:data:`BASES`: the dots or stripes
 rule, 1 000 iterations of the cpu preset without ageing, so already a stable pattern former):
-``dots`` for 300 iterations, ``stripes`` for 100 and the others for 60 (:data:`ITERATIONS`),
+``dots`` for 300 iterations, ``stripes`` for 100 and the others for 60 (:data:`SCHEDULES`),
 which is what fitted into about an hour of two shared CPU cores at a load average of 9-14
 (1-4.5 s per iteration). From
 zero weights 200 iterations at this size left the dots' loss at 0.29 (a blank canvas scores
@@ -55,16 +55,20 @@ TARGETS: dict[str, str] = {
 TARGET_SIZE = 64
 """Side of the target images the rules are trained on."""
 
-ITERATIONS: dict[str, int] = {"dots": 300, "stripes": 100}
-"""Training iterations per rule (:data:`DEFAULT_ITERATIONS` where not listed)."""
-DEFAULT_ITERATIONS = 60
+SCHEDULES: dict[str, tuple[int, tuple[int, int]]] = {
+    "dots": (300, (200, 270)),
+    "stripes": (100, (70, 90)),
+}
+"""Training iterations and learning-rate drops per rule (:data:`DEFAULT_SCHEDULE` where not
+listed): the schedules the shipped rules were trained with."""
+DEFAULT_SCHEDULE = (60, (42, 54))
 
 
 def library_config(name: str) -> TrainConfig:
-    """Training settings of library rule ``name``: the learning rate drops at 70 % and 90 %."""
-    n = ITERATIONS.get(name, DEFAULT_ITERATIONS)
-    return preset("cpu", size=32, iterations=n, decay_at=(n * 7 // 10, n * 9 // 10), age_start=0,
-                  checkpoint_every=50, sample_every=n, sample_steps=500)
+    """Training settings of library rule ``name``."""
+    iterations, decay_at = SCHEDULES.get(name, DEFAULT_SCHEDULE)
+    return preset("cpu", size=32, iterations=iterations, decay_at=decay_at, age_start=0,
+                  checkpoint_every=50, sample_every=iterations, sample_steps=500)
 
 
 BASES: dict[str, Path] = {
