@@ -11,6 +11,7 @@ from fastapi.testclient import TestClient
 from morphogen.cli.main import main as cli
 from morphogen.domains.grid import Grid
 from morphogen.initial import make_initial
+from morphogen.models import neural_library
 from morphogen.models.library import LIBRARY, get_model
 from morphogen.simulate import simulate
 from morphogen.web.app import create_app
@@ -49,7 +50,8 @@ def sim_of(client, sid):
 
 def test_models_lists_the_whole_library(client):
     data = client.get("/api/models").json()
-    assert {m["name"] for m in data["models"]} == set(LIBRARY)
+    shipped = set(neural_library.model_names())  # trained neural rules, neural:NAME
+    assert {m["name"] for m in data["models"]} == set(LIBRARY) | shipped
     gs = client.get("/api/models/gray-scott").json()
     names = [p["name"] for p in gs["params"]]
     assert names == list(get_model("gray-scott").params)

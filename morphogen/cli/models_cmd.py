@@ -14,7 +14,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "models",
         help="list library models, parameters and defaults",
         description="List the library models with their species, parameters (defaults), "
-        "presets and the seed equations they implement.",
+        "presets and the seed equations they implement, and the shipped trained neural RD "
+        "rules (neural:NAME).",
     )
     p.add_argument("name", nargs="?", help="show only this model")
     p.set_defaults(func=run)
@@ -38,7 +39,11 @@ def describe(model: Model) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from morphogen.models.library import LIBRARY, get_model
+    from morphogen.models.neural_library import describe_rule, load_rule, model_names
 
+    if args.name and args.name.startswith("neural:"):
+        print(describe(load_rule(args.name)))
+        return 0
     names = [args.name] if args.name else list(LIBRARY)
     blocks = []
     for name in names:
@@ -49,5 +54,7 @@ def run(args: argparse.Namespace) -> int:
                           "(see `morphogen models genrd`)\n  reference: " + model.reference)
             continue
         blocks.append(describe(model))
+    if not args.name:
+        blocks += [describe_rule(name) for name in model_names()]
     print("\n\n".join(blocks))
     return 0

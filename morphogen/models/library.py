@@ -27,11 +27,19 @@ def register(factory: Callable[[], Model]) -> Callable[[], Model]:
 
 
 def get_model(name: str) -> Model:
-    """The library model ``name``, or a clear error listing the known names."""
+    """The library model ``name``, a shipped trained neural RD rule ``neural:NAME``
+    (:mod:`morphogen.models.neural_library`), or a clear error listing the known names."""
+    if name.startswith("neural:"):
+        from morphogen.models.neural_library import load_rule
+
+        return load_rule(name)
     if name not in LIBRARY:
+        from morphogen.models.neural_library import model_names
+
+        known = ", ".join(sorted(LIBRARY) + model_names())
         raise MorphogenError(
-            f"unknown model {name!r}; known models: {', '.join(sorted(LIBRARY))} "
-            "(or give a model file ending in .toml)"
+            f"unknown model {name!r}; known models: {known} (or give a model file ending in "
+            ".toml)"
         )
     return LIBRARY[name]()
 

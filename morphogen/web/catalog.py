@@ -35,10 +35,12 @@ _CACHE_SIZE = 32
 
 
 def library_names() -> list[str]:
-    """Names of the library models, sorted."""
+    """Names of the library models, sorted, then the shipped trained neural RD rules
+    (``neural:NAME``, :mod:`morphogen.models.neural_library`)."""
     from morphogen.models.library import LIBRARY
+    from morphogen.models.neural_library import model_names
 
-    return sorted(LIBRARY)
+    return sorted(LIBRARY) + model_names()
 
 
 def model_key(spec: Mapping[str, Any]) -> str:
