@@ -6,7 +6,7 @@
 import { writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { chromium } from 'playwright-core';
-import { measure, readoutAndUndo, rectangleImexRecording, resumeAndDelete, urlState } from './tools.mjs';
+import { measure, openRunFile, readoutAndUndo, rectangleImexRecording, resumeAndDelete, urlState } from './tools.mjs';
 
 const [scenario, base, out] = process.argv.slice(2);
 const ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
@@ -150,7 +150,7 @@ const SCENARIOS = {
     await run.saveAs(join(out, 'run.json'));
     const [png] = await Promise.all([page.waitForEvent('download'), page.click('#ex-save-png')]);
     await png.saveAs(join(out, 'explore-saved.png'));
-    return { run: run.suggestedFilename(), png: png.suggestedFilename(), ...rect };
+    return { run: run.suggestedFilename(), png: png.suggestedFilename(), ...rect, ...(await openRunFile(page, out)) };
   },
 
   async atlas(page) {

@@ -162,6 +162,10 @@ def test_downloaded_params_file_runs_with_the_cli(server, tmp_path):
     config = json.loads(run_file.read_text())["config"]
     assert config["model"] == "gray-scott" and config["size"] == [128, 256]
     assert config["scheme"] == "imex"
+    # the page opens a run.json: its model, parameters, grid, scheme and colour map
+    assert data["opened"] == {"F": 0.05, "cmap": "magma", "size": 256, "height": 128,
+                              "scheme": "imex", "model": "gray-scott"}
+    assert "not a run file" in data["openError"]
     out = tmp_path / "sim"
     r = subprocess.run([sys.executable, "-m", "morphogen.cli.main", "simulate", "--config",
                         str(run_file), "--out", str(out)], capture_output=True, text=True,

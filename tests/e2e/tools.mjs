@@ -138,3 +138,22 @@ export async function resumeAndDelete(page, base, run) {
   const listed = await x(page, () => [...document.querySelectorAll('tr[data-run]')].map((tr) => tr.dataset.run));
   return { resumedGen, dialog, listedAfterDelete: listed };
 }
+
+// the page opens a run.json (here the one it saved, with F and the colour map changed)
+export async function openRunFile(page, out) {
+  const { readFileSync, writeFileSync } = await import('node:fs');
+  const data = JSON.parse(readFileSync(join(out, 'run.json'), 'utf8'));
+  data.config.params.F = 0.05;
+  data.config.cmap = 'magma';
+  writeFileSync(join(out, 'run-open.json'), JSON.stringify(data));
+  await page.setInputFiles('#ex-open', join(out, 'run-open.json'));
+  await page.waitForFunction(() => window.morphogenExplore.state?.params?.F === 0.05
+    && window.morphogenExplore.state.cmap === 'magma', null, { timeout: 60000 });
+  const s = await x(page, () => window.morphogenExplore.state);
+  // a file that is not a run file is refused in one line
+  writeFileSync(join(out, 'not-a-run.json'), JSON.stringify({ hello: 1 }));
+  await page.setInputFiles('#ex-open', join(out, 'not-a-run.json'));
+  await page.waitForSelector('#ex-error:not([hidden])');
+  return { opened: { F: s.params.F, cmap: s.cmap, size: s.size, height: s.height, scheme: s.scheme,
+    model: s.model }, openError: await page.textContent('#ex-error') };
+}

@@ -3,7 +3,7 @@
 
 import { api, colourTable, el, fillSelect, fmt, showError } from './api.js';
 import { ExploreTools } from './explore_tools.js';
-import { currentQuery, decodeSettings, encodeState } from './urlstate.js';
+import { currentQuery, decodeSettings, encodeState, settingsFromRunFile } from './urlstate.js';
 
 const HEADER_BYTES = 28; // u16 w, u16 h, u32 frame, f32 t, u32 steps, f32 lo, f32 hi, f32 ms
 const EQUATIONS = '__equations__';
@@ -266,6 +266,7 @@ export class Explore {
       this.$('ex-eq-box').hidden = v !== EQUATIONS;
       if (v !== EQUATIONS) this.load({ model: { library: v } });
     });
+    this.$('ex-open').addEventListener('change', () => this.openRunFile());
     this.$('ex-eq-apply').addEventListener('click', () => {
       this.load({ model: { equations: this.$('ex-equations').value } });
     });
@@ -290,6 +291,22 @@ export class Explore {
     this.$('ex-run').addEventListener('click', () => this.setRunning(!this.running));
     this.$('ex-step').addEventListener('click', () => this.stepOnce());
     document.addEventListener('keydown', (ev) => this.onKey(ev));
+  }
+
+  // a run.json chosen in the file box: its model, parameters, grid, scheme and view
+  async openRunFile() {
+    const input = this.$('ex-open');
+    const file = input.files[0];
+    input.value = '';
+    if (!file) return;
+    let settings;
+    try {
+      settings = settingsFromRunFile(JSON.parse(await file.text()));
+    } catch (err) {
+      showError(this.$('ex-error'), `${file.name}: ${err.message}`);
+      return;
+    }
+    await this.load(settings);
   }
 
   // species, colour map, steps per frame or colour range: no restart

@@ -53,3 +53,30 @@ export function currentQuery() {
   const at = hash.indexOf('?');
   return at < 0 ? '' : hash.slice(at + 1);
 }
+
+// settings for Explore.load() from a run file or run record (`run.json`: `{"config": {...}}`,
+// morphogen.runfile) that the command line or the Save button wrote
+export function settingsFromRunFile(data) {
+  const c = data?.config;
+  if (!c || typeof c !== 'object' || Array.isArray(c)) {
+    throw new Error('not a run file: it has no "config" object (see docs/equations.md)');
+  }
+  if (c.mesh) throw new Error('this run is on a mesh; the Explore page runs grids only');
+  if (c.boundary !== undefined && typeof c.boundary !== 'string') {
+    throw new Error('this run gives each species its own boundary; Explore takes one for all');
+  }
+  const size = Array.isArray(c.size) ? c.size : [256, 256];
+  if (size.length !== 2) throw new Error(`Explore runs 2D grids; this run's size is ${JSON.stringify(size)}`);
+  const resolved = data.resolved || {};
+  const scheme = c.scheme === 'auto' ? resolved.scheme : c.scheme;
+  const view = {};
+  if (c.cmap) view.cmap = c.cmap;
+  if (c.species) view.species = c.species;
+  if (Number.isFinite(c.vmin) && Number.isFinite(c.vmax)) view.range = [c.vmin, c.vmax];
+  return {
+    model: c.model_source ? { equations: c.model_source } : { library: c.model },
+    preset: c.preset || undefined, params: c.params || {}, dt: c.dt ?? resolved.dt,
+    height: size[0], size: size[1], boundary: c.boundary, scheme, init: c.init ?? undefined,
+    seed: c.seed ?? 0, view,
+  };
+}
