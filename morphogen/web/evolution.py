@@ -162,18 +162,31 @@ class EvolveRuns:
 
     def launch(self, archive: Archive, run_id: str, problem: Problem, total: int,
                population: int) -> EvolveRun:
+        return self.add(EvolveRun(run_id, archive, problem, total, population, self.idle_s))
+
+    def check_capacity(self) -> None:
+        """Refuse a new run while :data:`MAX_ACTIVE` runs are in progress."""
         with self._lock:
-            active = [r for r in self._runs.values() if r.state in ("running", "choose")]
-            if len(active) >= MAX_ACTIVE:
-                raise MorphogenError(
-                    f"{MAX_ACTIVE} evolve runs are already in progress; stop one first"
-                )
-            run = EvolveRun(run_id, archive, problem, total, population, self.idle_s)
-            self._runs[run_id] = run
-        threading.Thread(target=run.thread_main, name=f"evolve-{run_id}", daemon=True).start()
+            self._check_capacity()
+
+    def _check_capacity(self) -> None:
+        active = [r for r in self._runs.values() if r.state in ("running", "choose")]
+        if len(active) >= MAX_ACTIVE:
+            raise MorphogenError(
+                f"{MAX_ACTIVE} evolve runs are already in progress; stop one first"
+            )
+
+    def add(self, run: Any) -> Any:
+        """Start ``run`` (an :class:`EvolveRun`, or any object with its ``run_id``, ``state``,
+        ``thread_main``, ``stop`` and ``to_json``, e.g. a network run) in its own thread."""
+        with self._lock:
+            self._check_capacity()
+            self._runs[run.run_id] = run
+        threading.Thread(target=run.thread_main, name=f"evolve-{run.run_id}",
+                         daemon=True).start()
         return run
 
-    def get(self, run_id: str) -> EvolveRun:
+    def get(self, run_id: str) -> Any:
         with self._lock:
             run = self._runs.get(run_id)
         if run is None:

@@ -146,6 +146,26 @@ async def create(request: Request, body: JSONBody):
     return run.to_json()
 
 
+@router.get("/networks/defaults")
+async def network_defaults():
+    """Suggested settings of a reaction-network run (:mod:`morphogen.web.network_runs`)."""
+    from morphogen.web.network_runs import DEFAULTS, MAX_GENERATIONS
+
+    return {**DEFAULTS, "max_generations": MAX_GENERATIONS}
+
+
+@router.post("/networks")
+async def create_network(request: Request, body: JSONBody):
+    """Validate and start a reaction-network evolution (rates or network mode, cluster-head
+    fitness); it is polled like any run at ``/api/evolve/{run_id}``."""
+    from morphogen.web.network_runs import start_network_run
+
+    runs = request.app.state.evolve
+    runs.check_capacity()
+    run = start_network_run(body, request.app.state.limits, _archive(request))
+    return runs.add(run).to_json()
+
+
 @router.get("/{run_id}")
 async def status(request: Request, run_id: str):
     return request.app.state.evolve.get(run_id).to_json()

@@ -8,7 +8,8 @@ with different coefficients (``A`` there) gets an educt line and a product arrow
 autocatalysis as a loop. Coefficients of 1 are not written, as in chemical equations.
 
 The graph is a :mod:`networkx` bipartite digraph (species and reaction nodes); the layout is
-networkx's Kamada-Kawai layout (deterministic), drawn with matplotlib's Agg/SVG back ends.
+networkx's Kamada-Kawai layout of each connected part (deterministic), drawn with matplotlib's
+Agg/SVG back ends.
 """
 
 from __future__ import annotations
@@ -67,7 +68,7 @@ def draw_network(net: ReactionNetwork, fmt: str = "png",
     from matplotlib.lines import Line2D
 
     g = reaction_graph(net, reactions)
-    pos = nx.kamada_kawai_layout(g) if len(g) > 2 else nx.circular_layout(g)
+    pos = _layout(g)
     nodes = list(g)
     species = [v for v in nodes if g.nodes[v]["kind"] == "species"]
     rxns = [v for v in nodes if g.nodes[v]["kind"] == "reaction"]
@@ -117,6 +118,26 @@ def draw_network(net: ReactionNetwork, fmt: str = "png",
     metadata = {"Date": None} if fmt == "svg" else None
     fig.savefig(buf, format=fmt, bbox_inches="tight", metadata=metadata)
     return buf.getvalue()
+
+
+def _layout(g) -> dict:
+    """Kamada-Kawai positions of the undirected graph per connected part, the parts side by
+    side (largest first). On the directed graph, or across parts, path lengths are undefined
+    for most pairs and the layout can put two nodes on one spot."""
+    import networkx as nx
+
+    parts = sorted(nx.weakly_connected_components(g), key=lambda c: (-len(c), sorted(map(str, c))))
+    pos, x = {}, 0.0
+    for part in parts:
+        sub = g.subgraph(part).to_undirected()
+        local = nx.kamada_kawai_layout(sub) if len(sub) > 2 else nx.circular_layout(sub)
+        xy = np.array([local[v] for v in sub]) * (np.sqrt(len(sub)) / 2)
+        width = np.ptp(xy[:, 0]) if len(sub) > 1 else 0.0
+        shift = x - xy[:, 0].min()
+        for v, p in zip(sub, xy, strict=True):
+            pos[v] = np.array([p[0] + shift, p[1]])
+        x += width + 0.8
+    return pos
 
 
 def _outward(pos: dict, nodes: list, distance: float) -> dict:

@@ -69,14 +69,18 @@ def vector_genome(vector: Sequence[float], spec: NetworkSpec) -> Genome:
                   active.astype(bool))
 
 
-def start(out: Path, archive: Archive, settings: dict[str, Any]) -> str:
-    """Register a new run for the folder ``out``: ``config.json`` and the archive's row.
+def start(out: Path | None, archive: Archive, settings: dict[str, Any]) -> str:
+    """Register a new run for the folder ``out`` (default: the run id's folder next to the
+    archive, as for ``morphogen evolve``): ``config.json`` and the archive's row.
 
     ``settings`` is the loop's ``meta`` (spec, ops, ev, population, seed) plus ``mode`` and
     ``generations``.
     """
     mode = settings["mode"]
     run_id = new_run_id(f"net-{mode}")
+    if out is None:
+        out = archive.path.parent / run_id
+        out.mkdir(parents=True)
     config = {
         "id": run_id, "archive": str(archive.path), "kind": KIND,
         "seed": int(settings["seed"]), "generations": int(settings["generations"]),

@@ -1,5 +1,7 @@
 // Evolve: Skaggs's user-guided GA (choose favourites, next generation) or an automatic
-// fitness with progress. Runs land in the same archive as `morphogen evolve`.
+// fitness with progress; or reaction networks (Yamamoto §4: rates of the Table-2 network, or the
+// reactions themselves) scored by the cluster-head fitness, showing the fittest networks.
+// Runs land in the same archive as `morphogen evolve` / `morphogen networks`.
 
 import { api, el, fillSelect, fmt, showError } from './api.js';
 
@@ -19,7 +21,11 @@ export class Evolve {
     const c = this.root.querySelector('#ev-controls');
     const s = this.root.querySelector('#ev-stage');
     this.ui = {
+      kind: el('select', { id: 'ev-kind', 'aria-label': 'what to evolve' }),
       model: el('select', { id: 'ev-model', 'aria-label': 'evolve model' }),
+      tStart: el('input', { id: 'ev-t-start', type: 'number', min: 0, step: 'any' }),
+      interval: el('input', { id: 'ev-interval', type: 'number', min: 0, step: 'any' }),
+      rounds: el('input', { id: 'ev-rounds', type: 'number', min: 1, max: 10 }),
       fitness: el('select', { id: 'ev-fitness' }),
       strategy: el('select', { id: 'ev-strategy' }),
       population: el('input', { id: 'ev-population', type: 'number', min: 2, max: 36 }),
@@ -40,25 +46,35 @@ export class Evolve {
       log: el('pre', { id: 'ev-log', class: 'mono muted' }),
     };
     const u = this.ui;
+    fillSelect(u.kind, [['params', 'model parameters'], ['rates', 'reaction network: rates (Table 2)'],
+      ['network', 'reaction network: reactions']], 'params');
     fillSelect(u.model, this.app.info.models.map((m) => m.name), 'gray-scott');
     fillSelect(u.fitness, [['user', 'choose favourites (Skaggs eq. 3.9)'], ['dirichlet', 'automatic: modified Dirichlet energy']], 'user');
     fillSelect(u.strategy, [['ga', 'genetic algorithm'], ['cmaes', 'CMA-ES'],
       ['map-elites', 'MAP-Elites'], ['cvt-map-elites', 'MAP-Elites (CVT)']], 'ga');
     const row = (label, input) => el('label', {}, label, input);
     const stacked = (label, input) => el('label', { class: 'stack' }, label, input);
+    // shown for parameter searches only / for network runs only
+    this.paramOnly = [stacked('Fitness', u.fitness), stacked('Strategy', u.strategy), row('Steps', u.steps),
+      el('fieldset', {}, el('legend', { text: 'Genes (searched parameters)' }), u.genes)];
+    this.networkOnly = [row('First score at t', u.tStart), row('then every', u.interval), row('Rounds', u.rounds),
+      el('p', { class: 'muted small', text: 'Cluster-head fitness (Yamamoto §3.3): isolated peaks of A score most.' })];
     c.append(
-      el('fieldset', {}, el('legend', { text: 'Model' }), u.model),
-      el('fieldset', {}, el('legend', { text: 'Search' }), stacked('Fitness', u.fitness), stacked('Strategy', u.strategy),
+      el('fieldset', {}, el('legend', { text: 'Evolve' }), u.kind, u.model),
+      el('fieldset', {}, el('legend', { text: 'Search' }), this.paramOnly[0], this.paramOnly[1],
         row('Population', u.population), row('Generations', u.generations), row('Seed', u.seed)),
-      el('fieldset', {}, el('legend', { text: 'Simulation' }), row('Grid', u.size), row('Steps', u.steps), row('dt', u.dt)),
-      el('fieldset', {}, el('legend', { text: 'Genes (searched parameters)' }), u.genes),
+      el('fieldset', {}, el('legend', { text: 'Simulation' }), row('Grid', u.size), this.paramOnly[2], row('dt', u.dt),
+        ...this.networkOnly),
+      this.paramOnly[3],
       u.start, u.stop,
     );
+    this.toolbar = el('div', { class: 'toolbar' }, u.next, el('span', { class: 'muted small', text: 'Click tiles to choose favourites.' }));
     s.append(
-      el('div', { class: 'toolbar' }, u.next, el('span', { class: 'muted small', text: 'Click tiles to choose favourites.' })),
+      this.toolbar,
       u.error, u.bar, u.message, u.grid, u.elites, u.log,
     );
     u.model.addEventListener('change', () => this.setup());
+    u.kind.addEventListener('change', () => this.setup());
     u.start.addEventListener('click', () => this.start());
     u.stop.addEventListener('click', () => this.stop());
     u.next.addEventListener('click', () => this.next());
@@ -82,10 +98,18 @@ export class Evolve {
     }
   }
 
+  get networkMode() { return this.ui.kind.value !== 'params'; }
+
   async setup() {
+    const u = this.ui;
+    const net = this.networkMode;
+    u.model.hidden = net;
+    for (const node of this.paramOnly) node.hidden = net;
+    for (const node of this.networkOnly) node.hidden = !net;
+    this.toolbar.hidden = net;
+    if (net) return this.setupNetwork();
     try {
       const d = await api(`/api/evolve/setup/${this.ui.model.value}`);
-      const u = this.ui;
       u.population.value = d.population;
       u.generations.value = d.generations;
       u.size.value = d.size;
@@ -109,6 +133,21 @@ export class Evolve {
     } catch (err) { showError(this.ui.error, err.message); }
   }
 
+  async setupNetwork() {
+    try {
+      const d = await api('/api/evolve/networks/defaults');
+      const u = this.ui;
+      u.population.value = d.population;
+      u.generations.value = d.generations;
+      u.size.value = d.size;
+      u.dt.value = d.dt;
+      u.tStart.value = d.t_start;
+      u.interval.value = d.interval;
+      u.rounds.value = d.rounds;
+      showError(u.error, '');
+    } catch (err) { showError(this.ui.error, err.message); }
+  }
+
   genes() {
     const out = [];
     for (const box of this.ui.genes.querySelectorAll('input[data-gene]')) {
@@ -126,18 +165,24 @@ export class Evolve {
   async start() {
     const u = this.ui;
     showError(u.error, '');
-    const body = {
-      model: { library: u.model.value }, fitness: u.fitness.value, strategy: u.strategy.value,
+    const common = {
       population: Number(u.population.value), generations: Number(u.generations.value),
-      size: Number(u.size.value), steps: Number(u.steps.value), dt: Number(u.dt.value),
-      seed: Number(u.seed.value), init: this.init_kind, genes: this.genes(),
+      size: Number(u.size.value), dt: Number(u.dt.value), seed: Number(u.seed.value),
     };
+    const body = this.networkMode
+      ? { ...common, mode: u.kind.value, t_start: Number(u.tStart.value),
+        interval: Number(u.interval.value), rounds: Number(u.rounds.value) }
+      : { ...common, model: { library: u.model.value }, fitness: u.fitness.value,
+        strategy: u.strategy.value, steps: Number(u.steps.value), init: this.init_kind,
+        genes: this.genes() };
     try {
-      this.status = await api('/api/evolve', { method: 'POST', body });
+      const url = this.networkMode ? '/api/evolve/networks' : '/api/evolve';
+      this.status = await api(url, { method: 'POST', body });
       sessionStorage.setItem(RUN_KEY, this.status.run);
       u.grid.replaceChildren();
       u.elites.hidden = true;
       this.shownGen = 0;
+      this.shownNetworks = null;
       this.poll();
     } catch (err) { showError(u.error, err.message); }
   }
@@ -168,7 +213,9 @@ export class Evolve {
       + (st.message ? ` · ${st.message}` : '');
     u.log.textContent = st.log.join('\n');
     if (st.error) showError(u.error, st.error);
-    if (st.state === 'choose' && this.shownGen !== st.gen) {
+    if (st.kind === 'networks') {
+      this.showNetworks(st);
+    } else if (st.state === 'choose' && this.shownGen !== st.gen) {
       this.shownGen = st.gen;
       this.picked.clear();
       this.showTiles(st.images.map((src, i) => ({ src, caption: `#${i}`, idx: i })), true);
@@ -183,7 +230,7 @@ export class Evolve {
         })), false);
       }
     }
-    if (st.state === 'done' && this.elitesShown !== st.run) {
+    if (st.state === 'done' && st.kind !== 'networks' && this.elitesShown !== st.run) {
       this.elitesShown = st.run;
       await this.showElites(st.run);
     }
@@ -211,6 +258,24 @@ export class Evolve {
       me.map ? el('img', { src: me.map, alt: 'elite map', class: 'sheet' }) : null,
       tiles,
     ].filter((node) => node != null));
+  }
+
+  // the fittest networks of the last evaluated generation: activator pattern and reaction graph
+  showNetworks(st) {
+    const key = st.best.map((b) => `${b.pattern}|${b.network}`).join();
+    if (this.shownNetworks === key) return;
+    this.shownNetworks = key;
+    const grid = this.ui.grid;
+    grid.style.gridTemplateColumns = 'repeat(auto-fill, minmax(250px, 1fr))';
+    grid.replaceChildren(...st.best.map((b, rank) => {
+      const tile = el('button', { type: 'button', class: 'tile', 'data-idx': b.idx,
+        title: b.explore ? `${b.reactions.join('\n')}\n\nopen in Explore` : (b.note ?? '') },
+      el('img', { src: b.pattern, alt: `pattern of network #${b.idx}` }),
+      b.network ? el('img', { src: b.network, alt: `reactions of network #${b.idx}` }) : null,
+      el('span', { class: 'cap', text: `${rank + 1}. #${b.idx} f=${b.fitness == null ? 'invalid' : fmt(b.fitness)}` }));
+      if (b.explore) tile.addEventListener('click', () => this.app.openInExplore(b.explore));
+      return tile;
+    }));
   }
 
   showTiles(items, choosing) {
