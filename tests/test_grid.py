@@ -98,6 +98,20 @@ def test_dirichlet_run_converges_at_the_scheme_order(scheme, order):
     assert slope == pytest.approx(order, abs=0.35)  # 4.30 for rk4 here: not yet asymptotic
 
 
+@pytest.mark.parametrize(("shape", "boundary", "stencil"), [
+    ((6, 7), "neumann", 9), ((5, 6, 7), "periodic", 7), ((6, 8), "periodic", "spectral"),
+    ((6, 7), {"s0": "periodic", "s1": "dirichlet=1"}, 5)])
+def test_all_species_at_once_equals_one_by_one(shape, boundary, stencil):
+    grid = Grid(shape, boundary=boundary, stencil=stencil)
+    rng = np.random.default_rng(1)
+    u = rng.random((2, *shape)).astype(np.float32)
+    coeffs = (0.5, rng.random(shape).astype(np.float32))  # a scalar and a field
+    bcs = grid.boundaries(("s0", "s1"))
+    one_by_one = np.stack([d * np.asarray(grid.laplacian(u[i], bc))
+                           for i, (d, bc) in enumerate(zip(coeffs, bcs, strict=True))])
+    np.testing.assert_allclose(grid.diffuse(u, coeffs, bcs), one_by_one, rtol=1e-5, atol=1e-5)
+
+
 def test_nine_point_stencil_is_more_isotropic():
     """Apply each operator to plane waves of equal |k| at many angles; compare the spread."""
     n, kmag = 256, 0.9

@@ -48,7 +48,11 @@ def spectral_radius(shape: tuple[int, ...], dx: float) -> float:
     return float(sum((2 * np.pi * (n // 2) / (n * dx)) ** 2 for n in shape))
 
 
-def laplacian(f: Array, dx: float) -> Array:
-    """Pseudo-spectral Laplacian of one periodic field ``f`` (any shape, every axis periodic)."""
-    lam = jnp.asarray(symbol(*wavenumbers(f.shape)) / dx**2, f.dtype)
-    return jnp.fft.irfftn(lam * jnp.fft.rfftn(f), s=f.shape).astype(f.dtype)
+def laplacian(f: Array, dx: float, ndim: int | None = None) -> Array:
+    """Pseudo-spectral Laplacian over the last ``ndim`` axes of ``f`` (all axes by default),
+    every one periodic; leading axes (species) are transformed together."""
+    ndim = f.ndim if ndim is None else ndim
+    axes = tuple(range(f.ndim - ndim, f.ndim))
+    shape = f.shape[f.ndim - ndim:]
+    lam = jnp.asarray(symbol(*wavenumbers(shape)) / dx**2, f.dtype)
+    return jnp.fft.irfftn(lam * jnp.fft.rfftn(f, axes=axes), s=shape, axes=axes).astype(f.dtype)

@@ -1,7 +1,8 @@
 """Finite-difference Laplacian stencils on a padded array.
 
-Each stencil takes a field padded by one ghost cell on every side and returns the Laplacian of
-the interior. Weights are normalised so that every stencil is a consistent second-order
+Each stencil takes a field padded by one ghost cell on every side of its last 2 (3) axes and
+returns the Laplacian of the interior; leading axes (species) are carried along, so one pass
+serves every species. Weights are normalised so that every stencil is a consistent second-order
 approximation of the Laplacian (a Fourier mode ``exp(i k x)`` of small ``k`` decays at ``-|k|^2``).
 
 - 5-point (2D): ``(N + S + E + W - 4 c) / h^2``; Richard et al. part II eq. for ``u(t + h_t)``.
@@ -37,23 +38,24 @@ class Stencil:
 
 
 def _five(g: Array, h: float) -> Array:
-    c = g[1:-1, 1:-1]
-    return (g[:-2, 1:-1] + g[2:, 1:-1] + g[1:-1, :-2] + g[1:-1, 2:] - 4.0 * c) / (h * h)
+    c = g[..., 1:-1, 1:-1]
+    return (g[..., :-2, 1:-1] + g[..., 2:, 1:-1] + g[..., 1:-1, :-2] + g[..., 1:-1, 2:]
+            - 4.0 * c) / (h * h)
 
 
 def _nine(g: Array, h: float) -> Array:
-    c = g[1:-1, 1:-1]
-    edges = g[:-2, 1:-1] + g[2:, 1:-1] + g[1:-1, :-2] + g[1:-1, 2:]
-    corners = g[:-2, :-2] + g[:-2, 2:] + g[2:, :-2] + g[2:, 2:]
+    c = g[..., 1:-1, 1:-1]
+    edges = g[..., :-2, 1:-1] + g[..., 2:, 1:-1] + g[..., 1:-1, :-2] + g[..., 1:-1, 2:]
+    corners = g[..., :-2, :-2] + g[..., :-2, 2:] + g[..., 2:, :-2] + g[..., 2:, 2:]
     return (edges * (2.0 / 3.0) + corners * (1.0 / 6.0) - c * (10.0 / 3.0)) / (h * h)
 
 
 def _seven(g: Array, h: float) -> Array:
-    c = g[1:-1, 1:-1, 1:-1]
+    c = g[..., 1:-1, 1:-1, 1:-1]
     s = (
-        g[:-2, 1:-1, 1:-1] + g[2:, 1:-1, 1:-1]
-        + g[1:-1, :-2, 1:-1] + g[1:-1, 2:, 1:-1]
-        + g[1:-1, 1:-1, :-2] + g[1:-1, 1:-1, 2:]
+        g[..., :-2, 1:-1, 1:-1] + g[..., 2:, 1:-1, 1:-1]
+        + g[..., 1:-1, :-2, 1:-1] + g[..., 1:-1, 2:, 1:-1]
+        + g[..., 1:-1, 1:-1, :-2] + g[..., 1:-1, 1:-1, 2:]
     )
     return (s - 6.0 * c) / (h * h)
 
