@@ -107,6 +107,10 @@ def test_moving_the_feed_slider_changes_the_picture(server):
     assert data["urlAfter"] == data["urlBefore"] and data["urlAfter"]["cmap"] == "magma"
     assert data["urlAfter"]["F"] == pytest.approx(data["after"])
     assert data["hashAfter"] == data["hash"]
+    # a refused link: in a running tab the simulation goes on; opened afresh, the default runs
+    assert data["keptRunning"] == "magma"
+    assert "address were refused" in data["refused"] and "9999" in data["refused"]
+    assert data["refusedSize"] == 256
 
 
 def test_painting_a_perturbation(server):

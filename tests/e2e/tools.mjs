@@ -22,9 +22,16 @@ export async function urlState(page) {
   await page.waitForFunction(() => window.morphogenExplore?.frames >= 2
     && window.morphogenExplore.state?.cmap === 'magma' && window.morphogenExplore.lut, null, { timeout: 60000 });
   const after = await x(page, () => window.morphogenExplore.state);
-  return { hash, urlBefore: { F: before.params.F, cmap: before.cmap, dt: before.dt, size: before.size },
-    urlAfter: { F: after.params.F, cmap: after.cmap, dt: after.dt, size: after.size },
-    hashAfter: await x(page, () => window.location.hash) };
+  const hashAfter = await x(page, () => window.location.hash);
+  // a link with refused settings says why and runs the default model instead
+  await page.goto(`${page.url().split('#')[0]}#explore?model=gray-scott&size=9999`);
+  const keptRunning = await page.waitForSelector('#ex-error:not([hidden])').then(() => x(page, () => window.morphogenExplore.state.cmap));
+  await page.reload(); // the same link opened afresh
+  await page.waitForFunction(() => window.morphogenExplore?.frames >= 2 && window.morphogenExplore.state
+    && !document.getElementById('ex-error').hidden, null, { timeout: 60000 });
+  const refused = await page.textContent('#ex-error');
+  return { refused, keptRunning, refusedSize: await x(page, () => window.morphogenExplore.state.size), hash, urlBefore: { F: before.params.F, cmap: before.cmap, dt: before.dt, size: before.size },
+    urlAfter: { F: after.params.F, cmap: after.cmap, dt: after.dt, size: after.size }, hashAfter };
 }
 
 // hover at a fraction of the canvas; the readout the page shows for it

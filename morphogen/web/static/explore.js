@@ -68,7 +68,14 @@ export class Explore {
     this.tools.bind(); // brush, readout, colour bar, recording
     const query = currentQuery();
     this.lastQuery = query;
-    await this.load(decodeSettings(query) || { model: { library: 'gray-scott' } });
+    const fromUrl = decodeSettings(query);
+    const fallback = { model: { library: 'gray-scott' } };
+    await this.load(fromUrl || fallback);
+    if (!this.sid && fromUrl) { // refused settings in a link: say so, and run the default
+      const why = this.$('ex-error').textContent;
+      await this.load(fallback);
+      showError(this.$('ex-error'), `the settings in the page address were refused: ${why}`);
+    }
   }
 
   show() {
@@ -314,10 +321,10 @@ export class Explore {
     try {
       const res = await api(`/api/live/${this.sid}/view`, { method: 'POST', body });
       this.state = res;
+      this.writeUrl(); // with the state, in the same turn
       this.lut = await colourTable(res.cmap);
       this.tools.onState(res);
       this.updateLinks();
-      this.writeUrl();
       this.redraw();
     } catch (err) {
       this.fail(err);
