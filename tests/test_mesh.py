@@ -75,7 +75,7 @@ def test_flux_decomposition_matches_operator(sphere):
     flow = (z * u[jnp.asarray(ops.faces)][:, None, :]).sum(axis=2)
     mass = jnp.roll(flow, 1, axis=1) - jnp.roll(flow, -1, axis=1)
     direct = ops.tensor_divergence(u, tensor)
-    summed = ops.corners.apply(mass.reshape(-1))
+    summed = ops.corners.apply(mass.T.reshape(-1))  # corner-major: entry k F + f
     assert np.allclose(summed, direct, atol=1e-4 * np.abs(direct).max())
 
 
