@@ -9,10 +9,17 @@ Reported: cell-steps/s (individuals × cells × steps / wall seconds, compile ex
 padded / fixed, and the projected time of a full Table-1 run (150 individuals × 1024 cells ×
 38 000 steps × 100 generations ≈ 5.8e11 cell-steps), next to the seed's 20-50 minutes on three
 GTX 480 GPUs and > 30 hours on one CPU.
+
+``culling``: one generation's evaluation (:func:`morphogen.search.networks.evolve.evaluate`) of
+the random initial populations of Experiments 1 (rates, Table-2 network) and 2 (reactions,
+``m ≤ 12``), 150 × 32², Δt = 0.1, at a tenth of Table 1's time (t = 200, every 20, 10 rounds),
+with every individual integrated to the end (before) and with invalid individuals dropped at
+the bounds checks (after); the 1-minute load average is recorded with each.
 """
 
 from __future__ import annotations
 
+import os
 import time
 
 import jax
@@ -21,7 +28,15 @@ import numpy as np
 
 from morphogen.domains.grid import Grid
 from morphogen.models.network import yamamoto_activator_inhibitor
-from morphogen.search.networks.genome import stack, table2_genome, table2_spec
+from morphogen.search.networks import evolve
+from morphogen.search.networks.genome import (
+    NetworkSpec,
+    make_genome,
+    stack,
+    table2_genome,
+    table2_spec,
+)
+from morphogen.search.networks.operators import Operators, random_population
 from morphogen.search.networks.reaction import genome_params, padded_model
 from morphogen.simulate import integrate
 from morphogen.steppers import make_step
@@ -62,7 +77,43 @@ def run() -> dict:
         "full_table1_run_cell_steps": FULL_RUN,
         "projected_full_run_minutes": FULL_RUN / rate / 60,
         "seed_anchor": "20-50 min on 3x GTX 480; > 30 h on one CPU",
+        "culling": culling(),
     }
+
+
+def culling() -> dict:
+    """Seconds of one generation's evaluation without and with early dropping of invalid
+    individuals (compile excluded: each variant runs twice, the second is timed)."""
+    ev = evolve.Evaluation(size=SIZE, dt=0.1, t_start=200.0, interval=20.0, rounds=10)
+    net_spec = NetworkSpec(("A", "B", "C"), 12, (0.005, 0.2, 0.0), fixed=(0, 1),
+                           fixed_rates=(0.0, 0.0))
+    cases = {"exp1_rates": (table2_spec(), table2_genome(table2_spec()), "rates"),
+             "exp2_network": (net_spec, make_genome(net_spec, [0.0] * 12), "network")}
+    out: dict = {"evaluation": {"population": POP, "grid": SIZE, "dt": 0.1, "t_start": 200.0,
+                                "interval": 20.0, "rounds": 10,
+                                "steps": ev.start_steps + 9 * ev.round_steps}}
+    for name, (spec, template, mode) in cases.items():
+        key = jax.random.key(0)
+        pop = random_population(key, template, spec, POP, Operators(mode=mode))
+        u0 = evolve.initial_state(jax.random.fold_in(key, 2), spec, ev)
+        row: dict = {}
+        for label, checks, min_batch in (("before", 0, 10**9), ("after", evolve.CHECKS,
+                                                                  evolve.MIN_BATCH)):
+            saved = evolve.MIN_BATCH
+            evolve.MIN_BATCH = min_batch  # 10**9: every individual integrated every chunk
+            try:
+                evolve.evaluate(pop, u0, spec, ev, checks=checks)
+                load = os.getloadavg()[0]
+                t0 = time.perf_counter()
+                fitness, _ = evolve.evaluate(pop, u0, spec, ev, checks=checks)
+                row[f"{label}_s"] = time.perf_counter() - t0
+                row[f"{label}_load_1min"] = round((load + os.getloadavg()[0]) / 2, 2)
+            finally:
+                evolve.MIN_BATCH = saved
+            row[f"{label}_valid"] = int((fitness > -1.0).sum())
+        row["speedup"] = row["before_s"] / row["after_s"]
+        out[name] = row
+    return out
 
 
 if __name__ == "__main__":

@@ -37,6 +37,35 @@ def test_evaluation_matches_fixed_structure_model():
     assert (states[1] == 0).all()
 
 
+def test_invalid_individuals_leave_the_integration_early(monkeypatch):
+    """Stage one of §3.3 on the way to t_start: the 990 a^2 c blow-ups are found invalid at the
+    check after 20 steps and only the valid genomes (padded to 8) are integrated further;
+    fitness and final states equal the evaluation without checks."""
+    from morphogen.search.networks import evolve
+
+    spec = table2_spec()
+    g = table2_genome(spec)
+    bad = g._replace(mantissa=g.mantissa.at[6].set(99), exponent=g.exponent.at[6].set(2))
+    varied = [g._replace(mantissa=g.mantissa.at[7].set(m)) for m in range(1, 7)]
+    pop = stack([x for pair in zip(varied, [bad] * 6, strict=True) for x in pair])
+    u0 = initial_state(jax.random.key(1), spec, EV)
+    batches = []
+    advance = evolve._advance
+
+    def counted(*key):
+        fn = advance(*key)
+        return lambda u, p: batches.append(u.shape[0]) or fn(u, p)
+
+    monkeypatch.setattr(evolve, "_advance", counted)
+    fitness, states = evaluate(pop, u0, spec, EV)
+    assert batches == [12, 8, 8]  # 40 steps to t_start, cut at 20 for a check; one round
+    full, full_states = evaluate(pop, u0, spec, EV, checks=0)
+    assert (fitness[1::2] == -1.0).all() and (full[1::2] == -1.0).all()
+    assert (fitness[2::2] > 0).all()  # (k8 mantissa 1 in genome 0 also blows up)
+    np.testing.assert_allclose(fitness, full, rtol=1e-6)
+    np.testing.assert_allclose(states[::2], full_states[::2], rtol=1e-5, atol=1e-6)
+
+
 def test_rates_run_resumes_bit_identically(tmp_path):
     spec = table2_spec()
     ops = Operators(mode="rates")

@@ -9,7 +9,14 @@ mean of the rounds (Table 1: ``t = 2000``, every 200, 10 rounds). An individual 
 at any round (NaN, Inf or beyond ``s_max``) scores ``INVALID`` and its state is zeroed, so it
 can no longer produce NaN for the rest of the evaluation.
 
-The whole population is one ``vmap``-ed ``lax.scan`` per chunk, with the network structure as
+Stage one of the seed's incremental evaluation (§3.3: "eliminate these invalid individuals as
+soon as possible") is also applied on the way to ``t_start``: the bounds are checked
+:data:`CHECKS` times (every ``max(ceil(start_steps / CHECKS), round_steps)`` steps), and after
+every check or round only the individuals still valid are integrated further (an invalid one
+keeps its zeroed state), gathered into a batch padded to the next power of two, at
+least 8 (so a run compiles at most ``log2(P) - 1`` batch sizes per chunk length).
+
+Each chunk is one ``vmap``-ed ``lax.scan`` over the batch, with the network structure as
 runtime data (:mod:`morphogen.search.networks.reaction`): one compile for every topology.
 
 The loop state (population, fitness history, PRNG key, generation) is saved after every
@@ -41,6 +48,10 @@ from morphogen.simulate import integrate
 from morphogen.steppers import make_step
 
 Array = Any
+CHECKS = 10
+"""Bounds checks on the way to the first scoring round (0: none, every individual runs to it)."""
+MIN_BATCH = 8
+"""Smallest batch the valid individuals are gathered into (fewer compiled batch sizes)."""
 
 
 @dataclass(frozen=True)
@@ -97,28 +108,62 @@ def initial_state(key: Array, spec: NetworkSpec, ev: Evaluation) -> Array:
 
 
 def evaluate(pop: Genome, u0: Array, spec: NetworkSpec, ev: Evaluation,
-             progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray]:
+             progress: Callable[[int], None] | None = None,
+             checks: int = CHECKS) -> tuple[np.ndarray, np.ndarray]:
     """Fitness ``(P,)`` (mean cluster-head score over the rounds, or ``INVALID``) and the final
-    states ``(P, n, size, size)`` of a population started from the shared state ``u0``."""
+    states ``(P, n, size, size)`` of a population started from the shared state ``u0``.
+
+    ``checks`` bounds checks before ``t_start`` drop invalid individuals from the integration
+    (module docstring); ``progress`` is told every chunk's nominal steps, dropped or not.
+    """
     size = pop.mantissa.shape[0]
     params = genome_params(pop, spec)
     u = jnp.broadcast_to(u0, (size, *u0.shape))
     ok = jnp.ones(size, bool)
     total = jnp.zeros(size, jnp.float32)
     score = _score(ev.activator)
-    plan = [ev.start_steps] + [ev.round_steps] * (ev.rounds - 1)
-    for steps in plan:
-        if steps:
-            u = _advance(spec, ev.size, steps, float(ev.dt))(u, params)
-        f = score(u)
-        ok = ok & (f != INVALID) & jnp.all(jnp.isfinite(u) & (jnp.abs(u) <= S_MAX),
-                                           axis=(1, 2, 3))
+    for steps, scored in _plan(ev, checks):
+        alive = np.flatnonzero(np.asarray(ok))
+        if steps and alive.size:
+            u = _integrate_alive(u, params, alive, spec, ev, steps)
+        within = jnp.all(jnp.isfinite(u) & (jnp.abs(u) <= S_MAX), axis=(1, 2, 3))
+        if scored:
+            f = score(u)
+            ok = ok & (f != INVALID) & within
+            total = total + jnp.where(ok, f, 0.0)
+        else:
+            ok = ok & within
         u = jnp.where(ok[:, None, None, None], u, 0.0)
-        total = total + jnp.where(ok, f, 0.0)
         if progress is not None:
             progress(steps)
     fitness = jnp.where(ok, total / ev.rounds, INVALID)
     return np.asarray(fitness, np.float32), np.asarray(u, np.float32)
+
+
+def _plan(ev: Evaluation, checks: int) -> list[tuple[int, bool]]:
+    """``(steps, scored)`` chunks: the run-up to ``t_start`` cut for ``checks`` bounds checks,
+    then one chunk per scoring round. A check chunk is at least a round long, so the compiled
+    program of a round is reused (Table 1: 2000 steps each)."""
+    start = ev.start_steps
+    chunk = max(-(-start // checks), ev.round_steps) if checks > 0 and start else start
+    plan = [(chunk, False)] * (start // chunk - 1) if chunk else []
+    plan.append((start - chunk * len(plan), True))
+    return plan + [(ev.round_steps, True)] * (ev.rounds - 1)
+
+
+def _integrate_alive(u: Array, params: dict, alive: np.ndarray, spec: NetworkSpec,
+                     ev: Evaluation, steps: int) -> Array:
+    """Advance the individuals ``alive`` by ``steps``; the others keep their (zeroed) state.
+    The batch is padded to a power of two, at least :data:`MIN_BATCH` and at most the
+    population, by repeating one of them."""
+    size = u.shape[0]
+    batch = min(max(1 << int(np.ceil(np.log2(alive.size))), MIN_BATCH), size)
+    if batch == size:
+        return _advance(spec, ev.size, steps, float(ev.dt))(u, params)
+    idx = jnp.asarray(np.concatenate([alive, np.full(batch - alive.size, alive[0])]))
+    sub = _advance(spec, ev.size, steps, float(ev.dt))(
+        u[idx], {k: v[idx] for k, v in params.items()})
+    return u.at[idx[: alive.size]].set(sub[: alive.size])
 
 
 def save_state(path: Path, pop: Genome, history: np.ndarray, generation: int,
