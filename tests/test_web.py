@@ -377,6 +377,55 @@ def test_mesh_job_returns_a_coloured_flower(client):
         assert r.status_code == 400 and fragment in r.json()["error"]
 
 
+def _mesh_job(client, body):
+    job = client.post("/api/mesh", json=body).json()["job"]
+    for _ in range(1200):
+        status = client.get(f"/api/jobs/{job}").json()
+        if status["status"] in ("done", "error"):
+            return status
+        time.sleep(0.05)
+    raise AssertionError(status)
+
+
+def test_mesh_modelling_loop_paints_continues_and_writes_the_pipeline_files(client, tmp_path):
+    """Ringham §3.3: a painted production field reaches the PLY as a named vertex field, a
+    painted source sets the start there, and a continued run starts from the last state."""
+    from morphogen.mesh_io import load_mesh, ply_fields
+
+    base = {"shape": "petal", "size": 30, "steps": 8, "model": {"library": "gray-scott"}}
+    painted = list(range(0, 40, 3))
+    res = _mesh_job(client, {**base, "paint": {"name": "F", "value": 0.07,
+                                               "vertices": painted}})["result"]
+    ply = tmp_path / "out.ply"
+    ply.write_bytes(client.get(res["ply"]).content)
+    fields = ply_fields(ply)
+    f_default = get_model("gray-scott").params["F"]
+    expected = np.full(res["n_vertices"], f_default, np.float32)
+    expected[painted] = 0.07
+    np.testing.assert_allclose(fields["F"], expected, rtol=1e-6)
+    assert {"u", "v"} <= set(fields) and load_mesh(ply).n_vertices == res["n_vertices"]
+    assert client.get(res["png"]).content[:4] == b"\x89PNG"
+    live = client.get(f"/api/jobs/{res['job']}/files/live.bin").content
+    assert len(live) == 3 * res["n_vertices"]
+    # a source: v = 1 at the painted vertices; no steps beyond one, so it is still visible
+    src = _mesh_job(client, {**base, "steps": 1, "paint": {"name": "v", "value": 1.0,
+                                                           "vertices": [5]}})["result"]
+    v1 = ply_fields(_save(client, src["ply"], tmp_path / "s.ply"))["v"]
+    assert v1[5] > 0.9 and np.median(v1) < 0.5
+    # continue: zero-length change of parameters from the painted run's state, one more step
+    more = _mesh_job(client, {**base, "steps": 1, "from": src["job"]})["result"]
+    v2 = ply_fields(_save(client, more["ply"], tmp_path / "c.ply"))["v"]
+    assert v2[5] > 0.8  # grew on from the source, not from a fresh start
+    bad = client.post("/api/mesh", json={**base, "paint": {"name": "zz", "value": 1,
+                                                           "vertices": [1]}})
+    assert bad.status_code == 400 and "paint a species" in bad.json()["error"]
+
+
+def _save(client, url, path):
+    path.write_bytes(client.get(url).content)
+    return path
+
+
 @pytest.mark.parametrize("name", sorted(LIBRARY))
 def test_every_library_model_runs_live(client, name):
     state = new_session(client, model={"library": name}, init=None)
