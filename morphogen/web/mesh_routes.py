@@ -11,15 +11,17 @@ It is Ringham et al.'s modelling loop (§3.3, §5) in the browser: a *prepattern
 flower is a named vertex field (a species' starting value at its vertices: sources and sinks; or
 a parameter's value there: production) applied by :func:`morphogen.mesh_io.apply_fields`, as a
 PLY field is for the CLI; the simulation runs in segments and each segment's colours are served
-as ``live.bin`` while the job runs, so the page watches the pattern grow; a request naming an
-earlier job (``from``) continues its final state with new parameters instead of restarting; and
-the result is downloadable as the ``out.ply`` / ``out.png`` pair that
+as ``live.bin`` (the flower as ``geometry.json``) while the job runs, so the page watches the
+pattern grow; a request naming an earlier job (``from``) continues its final state with new
+parameters instead of restarting; and the result is downloadable as the ``out.ply`` /
+``out.png`` pair that
 :func:`morphogen.mesh_io.write_mesh_outputs` writes for ``morphogen pipeline``.
 """
 
 from __future__ import annotations
 
 import io
+import json
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -175,6 +177,11 @@ async def start(request: Request, body: JSONBody):
             raise MorphogenError("continue needs the same flower (shape, petals, size, "
                                  "detail); grow a new one instead")
         check_budget(mesh.n_vertices, steps, 1, lim)
+        vertices = np.asarray(mesh.vertices, np.float32)
+        faces = np.asarray(mesh.faces, np.int32)
+        job.files["geometry.json"] = (json.dumps({
+            "vertices": np.round(vertices, 3).ravel().tolist(),
+            "faces": faces.ravel().tolist()}).encode(), "application/json")
         fields = prepattern(paint, model, values, mesh.n_vertices)
         mesh = mesh.replace(fields={k: v for k, v in fields.items() if k in model.params})
         from morphogen.mesh_io import apply_fields
@@ -203,8 +210,6 @@ async def start(request: Request, body: JSONBody):
         progress(0.9, "rendering")
         from morphogen.render.mesh import render_mesh
 
-        vertices = np.asarray(mesh.vertices, np.float32)
-        faces = np.asarray(mesh.faces, np.int32)
         image = render_mesh(vertices, faces, rgb, view="oblique", size=(640, 640),
                             background="#15171c")
         job.files["mesh.png"] = (iio.imwrite("<bytes>", image, extension=".png"), "image/png")

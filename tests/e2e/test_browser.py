@@ -207,6 +207,12 @@ def test_mesh_page_grows_and_rotates_a_flower(server):
     assert data["faces"] > 1000
     assert data["before"] != data["after"], "dragging did not rotate the view"
     assert 0 < data["tilt"] <= 1.2 + 1e-9  # tilted by the drag, never edge-on
+    # Ringham's modelling loop: the pattern shown while it grows, a painted prepattern, a run
+    # continued with new parameters, and the pipeline's PLY (with the painted field) and PNG
+    assert data["liveFrames"] >= 1
+    assert data["painted"] > 0 and not data["loopError"].strip()
+    assert "property float F" in data["plyHeader"] and "property float u" in data["plyHeader"]
+    assert data["pngHead"] == "PNG"
     (OUT / "mesh-fps.txt").write_text(f"{data['fps']:.1f} frames/s, {data['faces']} faces\n")
 
 

@@ -1,5 +1,8 @@
 // Mesh: a pattern grown on a flower mesh on the server, shown on a canvas you can rotate
-// (drag) and zoom (wheel); the server's still rendering is shown beside it.
+// (drag) and zoom (wheel); the server's still rendering is shown beside it. Ringham's modelling
+// loop: paint a prepattern on the flower (a species' start or a parameter's value at the painted
+// vertices), watch the pattern grow segment by segment, continue with new parameters from the
+// last state, and download the PLY and PNG the pipeline writes.
 
 import { api, el, fillSelect, fmt, showError, waitForJob } from './api.js';
 
@@ -30,7 +33,18 @@ export class Mesh {
       message: el('p', { class: 'muted small' }),
       canvas: el('canvas', { id: 'me-canvas', class: 'mesh', width: 640, height: 640 }),
       still: el('img', { id: 'me-still', alt: 'server rendering', class: 'mesh-still', hidden: '' }),
+      paintOn: el('input', { id: 'me-paint', type: 'checkbox', title: 'drag on the flower paints instead of rotating' }),
+      field: el('select', { id: 'me-field', title: 'a species (sources, sinks) or a parameter (production)' }),
+      value: el('input', { id: 'me-value', type: 'number', step: 'any', value: 1 }),
+      radius: el('input', { id: 'me-radius', type: 'number', min: 2, max: 80, value: 14, title: 'brush radius in pixels' }),
+      clear: el('button', { id: 'me-clear', type: 'button', text: 'Clear paint' }),
+      params: el('div', { id: 'me-params' }),
+      more: el('button', { id: 'me-continue', type: 'button', text: 'Continue', disabled: '',
+        title: 'run on from the last state with these parameters' }),
+      ply: el('a', { id: 'me-ply', download: 'out.ply', text: 'PLY', hidden: '' }),
+      png: el('a', { id: 'me-png', download: 'out.png', text: 'PNG', hidden: '' }),
     };
+    this.painted = new Set();
     this.ui = u;
     fillSelect(u.model, this.app.info.models.map((m) => m.name), 'gray-scott');
     fillSelect(u.shape, [['corolla', 'corolla (fused petals)'], ['petal', 'single petal']], 'corolla');
@@ -40,16 +54,39 @@ export class Mesh {
       el('aside', { class: 'controls' },
         el('fieldset', {}, el('legend', { text: 'Flower' }), row('Shape', u.shape), row('Petals', u.petals), row('Size', u.size),
           row('Detail', u.detail)),
-        el('fieldset', {}, el('legend', { text: 'Pattern' }), row('Model', u.model), row('Steps', u.steps), row('Colours', u.cmap)),
-        u.go),
+        el('fieldset', {}, el('legend', { text: 'Pattern' }), row('Model', u.model), row('Steps', u.steps), row('Colours', u.cmap),
+          u.params),
+        el('fieldset', {}, el('legend', { text: 'Prepattern' }), row('Paint', u.paintOn), row('Field', u.field),
+          row('Value', u.value), row('Brush', u.radius), u.clear),
+        u.go, u.more, el('p', { class: 'small' }, 'Download: ', u.ply, ' ', u.png)),
       el('div', { class: 'stage' }, u.error, u.bar, u.message,
         u.canvas,
-        el('p', { class: 'muted small', text: 'Drag to rotate, scroll to zoom. Below: the same state rendered on the server.' }), u.still)));
+        el('p', { class: 'muted small', text: 'Drag to rotate (with Paint ticked: to paint the prepattern; Grow or Continue applies it), scroll to zoom. Below: the same state rendered on the server.' }), u.still)));
     this.limits = await api('/api/mesh/limits');
     u.detail.addEventListener('input', () => this.fitSize());
     this.fitSize();
     u.go.addEventListener('click', () => this.grow());
+    u.more.addEventListener('click', () => this.grow(true));
+    u.model.addEventListener('change', () => this.loadModel());
+    u.clear.addEventListener('click', () => { this.painted.clear(); this.draw(); });
+    await this.loadModel();
     this.bindView();
+  }
+
+  // the model's species and parameters: paint targets, and boxes for the parameter values
+  async loadModel() {
+    const m = await api(`/api/models/${this.ui.model.value}`);
+    this.model = m;
+    fillSelect(this.ui.field, [...m.species, ...m.params.map((p) => p.name)], m.species[m.species.length - 1]);
+    this.ui.params.replaceChildren(...m.params.map((p) => el('label', {}, p.name,
+      el('input', { type: 'number', step: 'any', value: p.value, 'data-param': p.name }))));
+    this.ui.more.disabled = true; // another model cannot continue this flower's state
+  }
+
+  params() {
+    const out = {};
+    for (const box of this.ui.params.querySelectorAll('input')) if (box.value !== '') out[box.dataset.param] = Number(box.value);
+    return out;
   }
 
   // the largest size the server accepts at this detail (size x detail <= max_across)
@@ -74,32 +111,47 @@ export class Mesh {
     return '';
   }
 
-  async grow() {
+  async grow(resume = false) {
     const u = this.ui;
     const refused = this.checkInputs();
     showError(u.error, refused);
     if (refused) return;
     u.go.disabled = true;
+    u.more.disabled = true;
     u.bar.hidden = false;
     const body = {
       model: { library: u.model.value }, shape: u.shape.value, petals: Number(u.petals.value),
-      size: Number(u.size.value), detail: Number(u.detail.value), cmap: u.cmap.value,
+      size: Number(u.size.value), detail: Number(u.detail.value), cmap: u.cmap.value, params: this.params(),
     };
     if (u.steps.value !== '') body.steps = Number(u.steps.value);
+    if (resume && this.lastJob) body.from = this.lastJob;
+    if (this.painted.size) body.paint = { name: u.field.value, value: Number(u.value.value), vertices: [...this.painted] };
     try {
       const { job } = await api('/api/mesh', { method: 'POST', body });
+      let seen = 0;
       const res = await waitForJob(job, (j) => {
         u.bar.value = j.progress;
         u.message.textContent = `${j.message} (${j.elapsed_s.toFixed(1)} s)`;
+        if (j.status === 'running' && j.progress > seen && j.progress > 0.05) {
+          seen = j.progress;
+          this.showLive(job);
+        }
       });
       this.setMesh(res);
+      this.lastJob = res.job;
+      this.painted.clear();
       u.still.src = res.image;
       u.still.hidden = false;
+      u.ply.href = res.ply; u.ply.hidden = false;
+      u.png.href = res.png; u.png.hidden = false;
+      u.more.disabled = false;
       u.message.textContent = `${res.model} on ${res.n_vertices} vertices, ${res.steps} steps of dt = ${fmt(res.dt)} `
         + `(${res.wall_time_s} s); ${res.species} from ${res.range[0].toPrecision(3)} to ${res.range[1].toPrecision(3)}`;
     } catch (err) {
       // the error replaces the previous flower: it must not look like this request's result
       this.mesh = null;
+      this.lastJob = null;
+      u.ply.hidden = true; u.png.hidden = true;
       u.canvas.getContext('2d').clearRect(0, 0, u.canvas.width, u.canvas.height);
       u.still.hidden = true;
       u.message.textContent = '';
@@ -107,6 +159,29 @@ export class Mesh {
     } finally {
       u.go.disabled = false;
       u.bar.hidden = true;
+    }
+  }
+
+  // the colours of the segment just simulated, on the flower's geometry (fetched once per job)
+  async showLive(job) {
+    if (this.liveBusy) return;
+    this.liveBusy = true;
+    try {
+      if (this.liveJob !== job) {
+        const geo = await api(`/api/jobs/${job}/files/geometry.json`);
+        this.setMesh({ ...geo, colours: new Uint8Array(geo.vertices.length) });
+        this.liveJob = job;
+      }
+      const bytes = new Uint8Array(await (await fetch(`/api/jobs/${job}/files/live.bin`)).arrayBuffer());
+      if (this.mesh && bytes.length === this.mesh.c.length) {
+        this.mesh.c = bytes;
+        this.live = (this.live || 0) + 1;
+        this.draw();
+      }
+    } catch (err) {
+      // a segment not simulated yet: the next poll tries again
+    } finally {
+      this.liveBusy = false;
     }
   }
 
@@ -131,9 +206,15 @@ export class Mesh {
   bindView() {
     const cv = this.ui.canvas;
     let last = null;
-    cv.addEventListener('pointerdown', (e) => { last = [e.clientX, e.clientY]; cv.setPointerCapture(e.pointerId); });
+    cv.style.touchAction = 'none'; // a finger paints or turns the flower instead of scrolling
+    cv.addEventListener('pointerdown', (e) => {
+      last = [e.clientX, e.clientY];
+      cv.setPointerCapture(e.pointerId);
+      if (this.ui.paintOn.checked) this.paintAt(e);
+    });
     cv.addEventListener('pointermove', (e) => {
       if (!last) return;
+      if (this.ui.paintOn.checked) { this.paintAt(e); return; }
       // half a degree per pixel, and never quite edge-on: a flower seen edge-on shows nothing
       this.rot.a += (e.clientX - last[0]) * 0.01;
       this.rot.b = Math.max(-MAX_TILT, Math.min(MAX_TILT, this.rot.b + (e.clientY - last[1]) * 0.005));
@@ -146,6 +227,27 @@ export class Mesh {
       this.zoom = Math.max(0.3, Math.min(5, this.zoom * Math.exp(-e.deltaY * 0.001)));
       this.draw();
     }, { passive: false });
+  }
+
+  // marks the vertices facing the viewer within the brush radius of the pointer
+  paintAt(e) {
+    if (!this.proj) return;
+    const cv = this.ui.canvas;
+    const box = cv.getBoundingClientRect();
+    const x = (e.clientX - box.left) * (cv.width / box.width);
+    const y = (e.clientY - box.top) * (cv.height / box.height);
+    const r = Number(this.ui.radius.value) * (cv.width / box.width);
+    const p = this.proj;
+    for (let i = 0; i < p.length / 3; i += 1) {
+      const dx = p[3 * i] - x; const dy = p[3 * i + 1] - y;
+      if (dx * dx + dy * dy > r * r) continue;
+      const xi = Math.round(p[3 * i]); const yi = Math.round(p[3 * i + 1]);
+      const at = yi * cv.width + xi;
+      // hidden behind another part of the flower: not painted
+      if (this.depth && xi >= 0 && yi >= 0 && xi < cv.width && yi < cv.height && this.depth[at] > p[3 * i + 2] + 2) continue;
+      this.painted.add(i);
+    }
+    this.draw();
   }
 
   // orthographic view rasterised into one ImageData with a depth buffer (no per-triangle
@@ -168,6 +270,7 @@ export class Mesh {
       p[3 * i + 1] = H / 2 - s * (cb * y1 - sb * z); // tilt about x
       p[3 * i + 2] = s * (sb * y1 + cb * z); // in pixels too, so normals are true
     }
+    this.proj = p;
     if (!this.frame || this.frame.width !== W || this.frame.height !== H) {
       this.frame = ctx.createImageData(W, H);
       this.depth = new Float32Array(W * H);
@@ -213,6 +316,9 @@ export class Mesh {
       }
     }
     ctx.putImageData(this.frame, 0, 0);
+    // the painted prepattern: a white dot on each painted vertex
+    ctx.fillStyle = 'rgba(255,255,255,0.85)';
+    for (const i of this.painted) ctx.fillRect(p[3 * i] - 1.5, p[3 * i + 1] - 1.5, 3, 3);
     this.drawn = (this.drawn || 0) + 1;
   }
 }
