@@ -69,6 +69,19 @@ def test_a_brush_disc_stays_round_on_a_rectangle_and_strokes_undo(client):  # no
     np.testing.assert_array_equal(sim_of(client, sid).state(), u_start)
     r = client.post(f"/api/live/{sid}/undo")
     assert r.status_code == 400 and "nothing to undo" in r.json()["error"]
+    # a brush on one species: v set to 0.7 in the disc, u untouched everywhere; erase on u only
+    one = {"radius": 0.1, "stroke": True, "species": "v"}
+    client.post(f"/api/live/{sid}/paint", json={"points": [[0.5, 0.5]], "mode": "value",
+                                                "value": 0.7, **one}).raise_for_status()
+    after_v = sim_of(client, sid).state()
+    disc = np.isclose(after_v[1], 0.7)
+    assert abs(disc.sum() - np.pi * 6.4**2) < 0.1 * np.pi * 6.4**2
+    np.testing.assert_array_equal(after_v[0], u_start[0])
+    client.post(f"/api/live/{sid}/paint", json={"points": [[0.5, 0.5]], "mode": "erase",
+                                                **{**one, "species": "u"}}).raise_for_status()
+    np.testing.assert_array_equal(sim_of(client, sid).state()[1], after_v[1])
+    r = client.post(f"/api/live/{sid}/paint", json={"points": [[0.5, 0.5]], "mode": "value"})
+    assert r.status_code == 400 and "needs a species" in r.json()["error"]
 
 
 def test_probe_reads_every_species_in_the_cell_under_the_cursor(client):  # noqa: F811

@@ -122,7 +122,8 @@ async def reset(request: Request, sid: str, body: OptionalBody = None):
 
 @router.post("/{sid}/paint")
 async def paint(request: Request, sid: str, body: JSONBody):
-    """Paint discs at ``points`` (``[[x, y], ...]``, fractions of width and height)."""
+    """Paint discs at ``points`` (``[[x, y], ...]``, fractions of width and height); ``mode``
+    excite / erase / value, optionally on one ``species`` only (see ``LiveSim.paint``)."""
     sim = _sim(request, sid)
     points = body.get("points")
     if not isinstance(points, list) or not points:
@@ -138,7 +139,8 @@ async def paint(request: Request, sid: str, body: JSONBody):
     def work():
         for i, (x, y) in enumerate(points):
             sim.paint(x, y, body.get("radius", 0.03), body.get("mode", "excite"),
-                      stroke=stroke and i == 0)
+                      stroke=stroke and i == 0, species=body.get("species"),
+                      value=body.get("value"))
 
     await run_limited(work, request.app.state.limits.request_timeout_s, "painting")
     return {"ok": True, "undo": len(sim.undo_stack)}

@@ -106,6 +106,7 @@ def _pixels(f: Any, lo: Any, hi: Any) -> Any:
 def _painter(grid: Grid) -> Callable:
     """``paint(u, cx, cy, r, values)``: set a disc of radius ``r`` (grid-width units) around
     ``(cx, cy)`` in ``[0, 1]^2`` to ``values`` ``(S,)``; distances wrap around on the torus.
+    A species whose value is NaN is left as it is (a brush on one species).
 
     On an ``h x w`` grid a height fraction ``dy`` is ``dy h / w`` widths, so the disc stays round.
     """
@@ -119,7 +120,8 @@ def _painter(grid: Grid) -> Callable:
         ddx = jnp.minimum(ddx, 1.0 - ddx)
         ddy = jnp.minimum(ddy, 1.0 - ddy) * aspect
         mask = (ddx**2 + ddy**2) <= r**2
-        return jnp.where(mask[None], values[:, None, None].astype(u.dtype), u)
+        keep = jnp.isnan(values)[:, None, None]
+        return jnp.where(mask[None] & ~keep, values[:, None, None].astype(u.dtype), u)
 
     return paint
 
@@ -271,21 +273,33 @@ class LiveSim:
             self._reset(init, seed)
 
     def paint(self, x: Any, y: Any, radius: Any = 0.03, mode: str = "excite",
-              stroke: bool = False) -> None:
+              stroke: bool = False, species: Any = None, value: Any = None) -> None:
         """Set a disc at ``(x, y)`` (fractions of the width and height from the top left) to the
-        model's excited state (``mode='excite'``) or its ground state (``'erase'``).
+        model's excited state (``mode='excite'``), its ground state (``'erase'``) or ``value``
+        (``'value'``). With ``species`` only that species is painted (``'value'`` needs one).
         ``stroke=True`` starts a new stroke: the state before it is kept for :meth:`undo`."""
         x = number(x, "x", 0.0, 1.0)
         y = number(y, "y", 0.0, 1.0)
         r = number(radius, "radius", 0.0, 0.5)
-        mode = choice(mode, "paint mode", ("excite", "erase"))
+        mode = choice(mode, "paint mode", ("excite", "erase", "value"))
+        model = self.engine.model
+        if species in (None, "") and mode == "value":
+            raise MorphogenError("painting a value needs a species; choose one in Brush species")
+        index = None if species in (None, "") else model.species_index(species)
+        amount = number(value, "brush value", -1e6, 1e6) if mode == "value" else 0.0
         with self.lock:
             self._touch()
             if stroke:
                 self.undo_stack = [*self.undo_stack, self.u][-UNDO_DEPTH:]
-            model = self.engine.model
-            vals = model.excited_state(self.values) if mode == "excite" else \
-                model.ground_state(self.values)
+            if mode == "value":
+                vals = np.zeros(len(model.species), np.float32)
+            else:
+                vals = np.asarray(model.excited_state(self.values) if mode == "excite" else
+                                  model.ground_state(self.values), np.float32).copy()
+            if index is not None:
+                chosen = amount if mode == "value" else vals[index]
+                vals = np.full(len(model.species), np.nan, np.float32)
+                vals[index] = chosen
             self.engine.program(self.steps_per_frame)
             # row 0 of the picture is y = 0 of the grid (images are drawn top-down)
             self.u = self.engine.paint(self.u, x, y, r, jnp.asarray(vals, jnp.float32))

@@ -136,10 +136,17 @@ const SCENARIOS = {
     const painted = [await pixelAt(page, 0.25, 0.25), await pixelAt(page, 0.75, 0.75)];
     const untouched = await pixelAt(page, 0.75, 0.25);
     const tools = await readoutAndUndo(page);
+    // the pointer is a ring the brush's size; the brush offers each species, or all
+    const brush = await page.evaluate(() => ({
+      cursor: document.getElementById('ex-canvas').style.cursor.slice(0, 26),
+      ring: window.morphogenExplore.tools.cursor,
+      species: Array.from(document.querySelectorAll('#ex-paint-species option'), (o) => o.value),
+      width: document.getElementById('ex-canvas').getBoundingClientRect().width,
+    }));
     await page.click('#ex-run');
     await waitFrames(page, 20);
     await page.screenshot({ path: join(out, 'paint.png') });
-    return { flat, painted, untouched, ...tools };
+    return { flat, painted, untouched, brush, ...tools };
   },
 
   async download(page) {

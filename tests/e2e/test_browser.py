@@ -132,6 +132,9 @@ def test_painting_a_perturbation(server):
     assert data["undone"]["values"] == {"u": 1.0, "v": 0.0}
     assert data["undoneDrag"]["values"] == {"u": 1.0, "v": 0.0}
     assert data["undoDisabled"]
+    brush = data["brush"]
+    assert brush["cursor"].startswith('url("data:image/png') and brush["species"] == ["", "u", "v"]
+    assert abs(brush["ring"] - 2 * 0.03 * brush["width"]) <= 1  # the default radius 0.03
 
 
 def test_one_evolve_generation_with_two_favourites(server):

@@ -161,6 +161,7 @@ export class Explore {
     if (rebuild) this.buildParams();
     for (const [name, v] of Object.entries(state.params)) this.setParamUI(name, v);
     fillSelect(this.$('ex-species'), state.species, state.show);
+    this.tools.brushSpecies(state.species);
     fillSelect(this.$('ex-preset'), [['', '—'], ...Object.keys(this.model.presets)], this.presetName);
     this.$('ex-desc').textContent = [this.model.description, this.model.reference]
       .filter(Boolean).join(' — ');

@@ -124,6 +124,35 @@ export class ExploreTools {
     const up = () => { down = false; };
     this.x.canvas.addEventListener('pointerup', up);
     this.x.canvas.addEventListener('pointercancel', up);
+    this.$('ex-brush').addEventListener('input', () => this.brushCursor());
+    window.addEventListener('resize', () => this.brushCursor());
+  }
+
+  // the species a stroke may paint (all, or one), after each model change
+  brushSpecies(species) {
+    const box = this.$('ex-paint-species');
+    const keep = box.value;
+    box.replaceChildren(new Option('all species', ''), ...species.map((s) => new Option(s, s)));
+    box.value = species.includes(keep) ? keep : '';
+    this.brushCursor();
+  }
+
+  // the mouse pointer is a ring the size of the brush (browsers refuse cursors over 128 px:
+  // larger brushes keep the crosshair)
+  brushCursor() {
+    const canvas = this.x.canvas;
+    const d = Math.round(2 * Number(this.$('ex-brush').value) * canvas.getBoundingClientRect().width);
+    if (!(d >= 4 && d <= 128)) { canvas.style.cursor = 'crosshair'; return; }
+    const c = d / 2;
+    const ring = document.createElement('canvas');
+    ring.width = d; ring.height = d;
+    const g = ring.getContext('2d');
+    for (const [colour, width] of [['black', 3], ['white', 1]]) {
+      g.strokeStyle = colour; g.lineWidth = width;
+      g.beginPath(); g.arc(c, c, c - 1.5, 0, 2 * Math.PI); g.stroke();
+    }
+    this.cursor = d;
+    canvas.style.cursor = `url(${ring.toDataURL()}) ${c} ${c}, crosshair`;
   }
 
   // strokes not yet on the server (the end-to-end tests wait for none)
@@ -148,7 +177,8 @@ export class ExploreTools {
       const res = await api(`/api/live/${this.x.sid}/paint`, {
         method: 'POST',
         body: { points: batch.map(([x, y]) => [x, y]), stroke: batch[0][2],
-          radius: Number(this.$('ex-brush').value), mode: this.$('ex-paint-mode').value },
+          radius: Number(this.$('ex-brush').value), mode: this.$('ex-paint-mode').value,
+          species: this.$('ex-paint-species').value || null, value: Number(this.$('ex-paint-value').value) },
       });
       this.setUndo(res.undo);
       showError(this.$('ex-error'), '');
