@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 
+import imageio.v3 as iio
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
@@ -300,6 +301,15 @@ def test_downloads_png_and_a_run_file_the_cli_reproduces(client, tmp_path):
         frame(client, sid)
     png = client.get(f"/api/live/{sid}/png?cmap=magma")
     assert png.headers["content-type"] == "image/png" and png.content[:4] == b"\x89PNG"
+    # at scale 3 each cell is a 3 x 3 block of one colour (nearest neighbour)
+    one = iio.imread(png.content)
+    big = iio.imread(client.get(f"/api/live/{sid}/png?cmap=magma&scale=3").content)
+    assert big.shape == (3 * one.shape[0], 3 * one.shape[1], 3)
+    np.testing.assert_array_equal(big[::3, ::3], one)
+    np.testing.assert_array_equal(big[2::3, 1::3], one)
+    big_sid = new_session(client, size=512)["id"]
+    r = client.get(f"/api/live/{big_sid}/png?scale=16")
+    assert r.status_code == 400 and "a scale of at most 8" in r.json()["error"]
     r = client.get(f"/api/live/{sid}/config?steps=64")
     assert "attachment" in r.headers["content-disposition"]
     path = tmp_path / "run.json"

@@ -29,6 +29,8 @@ HEADER = struct.Struct("<HHIfIfff")
 """Frame header: width, height, frame number, t, steps, lo, hi, compute time (ms)."""
 MAX_STROKE = 64
 """Points in one paint request (a drag is sent in pieces)."""
+MAX_PNG_SIDE = 4096
+"""Largest side of a downloaded PNG in pixels."""
 
 
 def encode_frame(f: Frame) -> bytes:
@@ -233,9 +235,16 @@ def _exists(ws: WebSocket, sid: str) -> bool:
 
 @router.get("/{sid}/png")
 async def png(request: Request, sid: str, cmap: str | None = None, scale: int = 1):
-    """The shown species as a PNG through the chosen colour map (a download)."""
+    """The shown species as a PNG through the chosen colour map (a download), each cell
+    ``scale`` x ``scale`` pixels (nearest neighbour, so cells stay sharp), at most
+    ``MAX_PNG_SIDE`` pixels a side."""
     sim = _sim(request, sid)
-    scale = integer(scale, "scale", 1, 4)
+    scale = integer(scale, "scale", 1, 16)
+    side = max(sim.engine.grid.spatial_shape) * scale
+    if side > MAX_PNG_SIDE:
+        raise MorphogenError(f"a PNG {side} pixels wide is too large; the server allows "
+                             f"{MAX_PNG_SIDE}: choose a scale of at most "
+                             f"{max(1, MAX_PNG_SIDE // max(sim.engine.grid.spatial_shape))}")
     data = export.png_bytes(sim.field(), cmap or sim.cmap, scale)
     name = f"{sim.describe()['model']}.png"
     return Response(data, media_type="image/png", headers=_attachment(name))

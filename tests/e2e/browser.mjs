@@ -155,6 +155,7 @@ const SCENARIOS = {
     await waitFrames(page, 5);
     const [run] = await Promise.all([page.waitForEvent('download'), page.click('#ex-save-run')]);
     await run.saveAs(join(out, 'run.json'));
+    await page.selectOption('#ex-png-scale', '4');
     const [png] = await Promise.all([page.waitForEvent('download'), page.click('#ex-save-png')]);
     await png.saveAs(join(out, 'explore-saved.png'));
     return { run: run.suggestedFilename(), png: png.suggestedFilename(), ...rect, ...(await openRunFile(page, out)) };
@@ -177,10 +178,12 @@ const SCENARIOS = {
     await page.fill('#at-x-hi', lo);
     await page.click('#at-go');
     await page.waitForSelector('#at-error:not([hidden])');
-    const staleShown = await page.isVisible('#at-result');
+    const staleShown = await page.isVisible('#at-result') || await page.isVisible('#at-save');
     await page.fill('#at-x-hi', String(res.x.hi));
     await page.click('#at-go');
     await page.waitForSelector('#at-result:not([hidden])', { timeout: 120000 });
+    const [mosaic] = await Promise.all([page.waitForEvent('download'), page.click('#at-save')]);
+    await mosaic.saveAs(join(out, 'atlas-mosaic.png'));
     // click the tile in the top row, second column: x = second k, y = largest F
     const box = await page.locator('#at-image').boundingBox();
     const cell = (res.tile + res.pad) / (res.x.n * (res.tile + res.pad) + res.pad);

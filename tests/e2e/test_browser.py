@@ -16,6 +16,7 @@ import sys
 import time
 from pathlib import Path
 
+import imageio.v3 as iio
 import numpy as np
 import pytest
 
@@ -157,10 +158,12 @@ def test_one_evolve_generation_with_two_favourites(server):
 def test_downloaded_params_file_runs_with_the_cli(server, tmp_path):
     data = scenario(server, "download")
     assert data["run"].endswith(".json") and data["png"].endswith(".png")
-    assert (OUT / "explore-saved.png").read_bytes()[:4] == b"\x89PNG"
+    # saved at 4 pixels per cell, nearest neighbour: 4 x 4 blocks of one colour
+    saved = iio.imread(OUT / "explore-saved.png")
+    assert saved.shape[:2] == (4 * 128, 4 * 256)
+    np.testing.assert_array_equal(saved[::4, ::4], saved[3::4, 3::4])
     # a 256 x 128 grid under IMEX, shown at its own aspect ratio, recorded as a GIF
     assert data["canvas"] == [256, 128] and data["shownRatio"] == pytest.approx(2, rel=0.02)
-    import imageio.v3 as iio
 
     movie = iio.imread(OUT / "recording.gif", index=None)
     assert data["gif"].endswith(".gif") and data["recordedLabel"] >= 12
@@ -192,6 +195,8 @@ def test_atlas_tile_opens_in_explore(server):
     # the tile's own grid, so Explore grows the pattern the tile showed; the Grid box shows it
     assert data["size"] == data["tile"] == 32 and data["sizeShown"] == "32"
     assert not data["staleShown"]  # an error does not sit over the previous atlas
+    mosaic = iio.imread(OUT / "atlas-mosaic.png")  # the downloaded mosaic: 6 x 6 tiles of 32
+    assert mosaic.shape[0] >= 6 * 32 and mosaic.shape[1] >= 6 * 32
 
 
 def test_two_tabs_have_their_own_simulations(server):

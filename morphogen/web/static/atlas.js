@@ -92,6 +92,7 @@ export class Atlas {
     } catch (err) {
       // the error replaces the previous atlas: it must not look like this request's result
       this.$('at-result').hidden = true;
+      this.$('at-save').hidden = true;
       this.$('at-message').textContent = '';
       this.result = null;
       showError(this.$('at-error'), err.message);
@@ -115,8 +116,10 @@ export class Atlas {
       img.style.width = `${img.naturalWidth * zoom}px`;
       img.style.height = `${img.naturalHeight * zoom}px`;
       this.$('at-result').hidden = false;
+      this.$('at-save').hidden = false;
     };
     img.src = res.image;
+    this.$('at-save').href = res.image; // the mosaic as computed: one pixel per cell
     this.$('at-ylabels').replaceChildren(
       ...[...res.y.values].reverse().map((v) => el('span', { text: `${res.y.name}=${fmt(v)}` })),
     );

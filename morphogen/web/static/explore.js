@@ -288,6 +288,7 @@ export class Explore {
     });
     this.$('ex-dt-num').addEventListener('change', () => this.sendParams({ dt: Number(this.$('ex-dt-num').value) }));
     const view = (body) => this.setView(body);
+    this.$('ex-png-scale').addEventListener('change', () => this.updateLinks());
     this.$('ex-species').addEventListener('change', () => view({ species: this.$('ex-species').value }));
     this.$('ex-cmap').addEventListener('change', () => view({ cmap: this.$('ex-cmap').value }));
     this.$('ex-steps').addEventListener('change', () => view({ steps_per_frame: Number(this.$('ex-steps').value) }));
@@ -381,7 +382,7 @@ export class Explore {
   updateLinks() {
     if (!this.sid) return;
     const cmap = encodeURIComponent(this.$('ex-cmap').value);
-    this.$('ex-save-png').href = `/api/live/${this.sid}/png?cmap=${cmap}`;
+    this.$('ex-save-png').href = `/api/live/${this.sid}/png?cmap=${cmap}&scale=${this.$('ex-png-scale').value}`;
     this.$('ex-save-run').href = `/api/live/${this.sid}/config`;
   }
 
