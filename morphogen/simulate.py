@@ -58,10 +58,9 @@ def batch_block(members: int) -> int:
     another (``lax.map``).
 
     On an accelerator the whole batch is one ``vmap``. On CPU, one member at a time: with the
-    whole-array grid operator it measured fastest at every size tried on 2 cores
-    (``bench/results/grid.json``: 150 members of 3 × 32² at 5.3e7 cell-steps/s one at a time,
-    1.7e7 in blocks of 15, 1.6e7 as one ``vmap``; the same order at 16² and for 16 members of
-    2 × 256²).
+    whole-array grid operator it measured fastest at every size tried on 2 cores, in three runs
+    (``bench/results/grid.json`` and docs/schemes.md: 150 members of 3 × 32² and of 3 × 16²,
+    against blocks of 15 and one ``vmap``).
     """
     if jax.default_backend() != "cpu":
         return members
@@ -80,9 +79,19 @@ def _compiled(step: Step, block: int) -> Callable:
 
     def run_b(u, p, t, dt, key, steps):
         def member(m):
-            return run(m[0], m[1], t, dt, m[2], steps)
+            return run(m[0], m[1], t, dt, m[2], steps)[0]
 
-        return jax.lax.map(member, (u, p, key), batch_size=block)
+        u = jax.lax.map(member, (u, p, key), batch_size=block)
+        # The clock and the key sequence of `integrate`, advanced outside the members' loop:
+        # the same values, and mapping only the state measured 3x faster (150 x 3 x 16²).
+        dt = jnp.asarray(dt, u.dtype)
+
+        def tick(carry, _):
+            tt, k = carry
+            return (tt + dt, jax.vmap(lambda x: jax.random.split(x)[0])(k)), None
+
+        (t, key), _ = jax.lax.scan(tick, (jnp.asarray(t, u.dtype), key), None, length=steps)
+        return u, jnp.broadcast_to(t, u.shape[:1]), key
 
     return jax.jit(run_b, static_argnums=5)
 
