@@ -336,8 +336,17 @@ const SCENARIOS = {
     await page.click('#ex-eq-apply');
     await page.waitForSelector('#ex-error:not([hidden])');
     const error = await page.textContent('#ex-error');
+    // a model whose fifth line names an unknown parameter: that line is marked in the box
+    await page.fill('#ex-equations', 'name = "x"\nspecies = ["u", "v"]\n\n[equations]\nu = "u*(1-u) + zz"\nv = "u"\n');
+    await page.click('#ex-eq-apply');
+    await page.waitForSelector('#ex-eq-mark:not([hidden])');
+    const marked = await page.evaluate(() => {
+      const box = document.getElementById('ex-equations');
+      return { line: window.morphogenExplore.tools.badLine, mark: document.getElementById('ex-eq-mark').textContent,
+        selected: box.value.slice(box.selectionStart, box.selectionEnd), bad: box.classList.contains('bad') };
+    });
     await page.screenshot({ path: join(out, 'equations-rejected.png') });
-    return { error, model: await page.evaluate(() => window.morphogenExplore.state.model) };
+    return { error, marked, model: await page.evaluate(() => window.morphogenExplore.state.model) };
   },
 };
 

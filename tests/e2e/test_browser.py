@@ -208,6 +208,10 @@ def test_two_tabs_have_their_own_simulations(server):
 def test_unsafe_equation_text_is_refused_in_the_page(server):
     data = scenario(server, "equations")
     assert data["error"].strip() and data["model"] == "gray-scott"
+    # the server's "line 5, column 16" error marks that line in the equations box
+    marked = data["marked"]
+    assert marked["line"] == 5 and marked["selected"] == 'u = "u*(1-u) + zz"' and marked["bad"]
+    assert marked["mark"] == '5 | u = "u*(1-u) + zz"\n' + " " * 19 + "^"
 
 
 def test_mesh_page_grows_and_rotates_a_flower(server):

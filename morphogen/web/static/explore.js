@@ -153,6 +153,7 @@ export class Explore {
     } catch (err) {
       if (err.body?.gone) { this.sid = null; return this.load(settings); }
       showError(this.$('ex-error'), err.message);
+      this.tools.markLine(settings.model?.equations ? err.message : '');
     }
   }
 
@@ -276,6 +277,7 @@ export class Explore {
     });
     this.$('ex-open').addEventListener('change', () => this.openRunFile());
     this.$('ex-eq-apply').addEventListener('click', () => {
+      this.tools.markLine('');
       this.load({ model: { equations: this.$('ex-equations').value } });
     });
     this.$('ex-preset').addEventListener('change', () => {

@@ -155,6 +155,31 @@ export class ExploreTools {
     canvas.style.cursor = `url(${ring.toDataURL()}) ${c} ${c}, crosshair`;
   }
 
+  // the equations box marks the line a parse error names ("line L, column C: ..."): the line
+  // is selected in the box and shown under it with a caret at the column; '' clears the mark
+  markLine(message) {
+    const box = this.$('ex-equations');
+    let mark = this.$('ex-eq-mark');
+    if (!mark) {
+      mark = document.createElement('pre');
+      mark.id = 'ex-eq-mark';
+      mark.className = 'error mono small';
+      box.after(mark);
+    }
+    const m = /^line (\d+), column (\d+)/.exec(message || '');
+    const lines = box.value.split('\n');
+    const line = m ? Number(m[1]) : 0;
+    mark.hidden = !(line >= 1 && line <= lines.length);
+    box.classList.toggle('bad', !mark.hidden);
+    this.badLine = mark.hidden ? null : line;
+    if (mark.hidden) return;
+    const start = lines.slice(0, line - 1).reduce((n, l) => n + l.length + 1, 0);
+    box.focus();
+    box.setSelectionRange(start, start + lines[line - 1].length);
+    const prefix = `${line} | `;
+    mark.textContent = `${prefix}${lines[line - 1]}\n${' '.repeat(prefix.length + Number(m[2]) - 1)}^`;
+  }
+
   // strokes not yet on the server (the end-to-end tests wait for none)
   busy() {
     return this.paintQueue.length > 0 || this.painting > 0 || Boolean(this.paintTimer);
