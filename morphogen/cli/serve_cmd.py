@@ -24,6 +24,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--archive", default=None,
                    help="run archive (SQLite index) shared with `morphogen evolve` "
                    "(default: $MORPHOGEN_ARCHIVE or runs/index.sqlite)")
+    p.add_argument("--no-warm-up", dest="warm_up", action="store_false",
+                   help="do not compile the library models' live views in the background at "
+                   "start (they are compiled on first use instead)")
     p.set_defaults(func=run)
 
 
@@ -38,7 +41,8 @@ def run(args: argparse.Namespace) -> int:
     if args.host not in LOCAL:
         hosts.append(args.host)
         print(f"warning: serving on {args.host}; anyone who can reach it can use the app")
-    app = create_app(archive=args.archive, allowed_hosts=hosts)
+    app = create_app(archive=args.archive, allowed_hosts=hosts,
+                     warm_up=args.warm_up)
     family = socket.AF_INET6 if ":" in args.host else socket.AF_INET
     sock = socket.socket(family, socket.SOCK_STREAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)

@@ -12,6 +12,7 @@ Content-Security-Policy of ``'self'`` keeps the browser from fetching anything f
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 from contextlib import asynccontextmanager
 from pathlib import Path
@@ -35,6 +36,7 @@ from morphogen.web.evolution import EvolveRuns
 from morphogen.web.jobs import JobGone, JobStore
 from morphogen.web.limits import Limits, WorkTimeout
 from morphogen.web.sessions import SessionGone, SessionStore
+from morphogen.web.warmup import start_warm_up
 
 STATIC = Path(__file__).parent / "static"
 LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1", "[::1]")
@@ -51,6 +53,7 @@ def create_app(
     limits: Limits | None = None,
     archive: str | Path | None = None,
     allowed_hosts: Sequence[str] = LOCAL_HOSTS,
+    warm_up: bool = False,
 ) -> FastAPI:
     """Build the app.
 
@@ -60,10 +63,16 @@ def create_app(
             (``$MORPHOGEN_ARCHIVE`` or ``runs/index.sqlite`` when ``None``).
         allowed_hosts: accepted ``Host`` headers (guards a local server against DNS
             rebinding); add the public name when serving beyond 127.0.0.1.
+        warm_up: compile the library models' live frame programs in a background thread at
+            start (:mod:`morphogen.web.warmup`), so a model switch need not wait for them.
     """
     @asynccontextmanager
     async def lifespan(app: FastAPI):
+        stop = threading.Event()
+        if warm_up:
+            start_warm_up(lim, stop)
         yield
+        stop.set()
         app.state.jobs.shutdown()
         app.state.evolve.stop_all()
 

@@ -119,6 +119,13 @@ export async function measure(page) {
     await page.waitForFunction((s) => window.morphogenExplore.frames > s, f, { timeout: 120000 });
     return (Date.now() - t0) / 1000;
   };
+  // at the page's default 256² grid, which the server compiles for every library model at start
+  await page.selectOption('#ex-size', '256');
+  await page.waitForFunction(() => window.morphogenExplore.state.size === 256 && window.morphogenExplore.frames >= 2, null, { timeout: 60000 });
+  out.switchDefault = await switchTo('schnakenberg');
+  out.switchDefaultSecond = await switchTo('gierer-meinhardt');
+  await page.selectOption('#ex-size', '128');
+  await page.waitForFunction(() => window.morphogenExplore.state.size === 128 && window.morphogenExplore.frames >= 2, null, { timeout: 60000 });
   out.switchFirst = await switchTo('brusselator');
   out.switchBack = await switchTo('gray-scott');
   out.switchAgain = await switchTo('brusselator');
