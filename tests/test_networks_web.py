@@ -78,6 +78,20 @@ def test_network_run_shows_its_fittest_networks_and_opens_one_in_explore(client)
     # the run is a `morphogen networks` run: favourites are refused, the Runs list has it
     assert client.post(f"/api/evolve/{run}/select", json={"indices": [0]}).status_code == 400
     assert run in {r["id"] for r in client.get("/api/runs").json()["runs"]}
+    # the Runs page's detail: one row per generation, the fittest networks as replayable run files
+    detail = client.get(f"/api/runs/{run}")
+    assert detail.status_code == 200, detail.text
+    detail = detail.json()
+    assert detail["kind"] == "networks" and detail["species"] == ["A", "B", "C"]
+    assert [g["gen"] for g in detail["history"]] == [1]
+    assert detail["history"][0]["best"] == pytest.approx(max(fitness), abs=1e-4)
+    assert detail["best"][0]["fitness"] == pytest.approx(max(fitness), abs=1e-4)
+    source = detail["best"][0]["run_file"]["config"]["model_source"]
+    assert client.post("/api/models/parse", json={"equations": source}).status_code == 200
+    # parameter-search routes name the command that continues a network run
+    for r in (client.get(f"/api/runs/{run}/generations/1"),
+              client.get(f"/api/runs/{run}/individuals/1/0/config")):
+        assert r.status_code == 400 and "morphogen networks --out" in r.json()["error"]
 
 
 @pytest.mark.parametrize("change, message", [

@@ -44,6 +44,23 @@ def _run(request: Request, run_id: str) -> tuple[Archive, dict[str, Any]]:
     return archive, archive.run(run_id)
 
 
+def _is_network(info: dict[str, Any]) -> bool:
+    """Whether a run was written by ``morphogen networks`` (or the Evolve page's network mode),
+    whose settings are a network specification rather than a parameter search's problem."""
+    from morphogen.search.networks.record import KIND
+
+    return info["config"].get("kind") == KIND
+
+
+def _search_problem(info: dict[str, Any]) -> Problem:
+    """A parameter search's problem; a network run is refused with the command to use."""
+    if _is_network(info):
+        from morphogen.search.networks.record import resume_hint
+
+        raise MorphogenError(resume_hint(info["id"], info["dir"]))
+    return Problem.from_dict(info["config"]["problem"])
+
+
 def _file_url(run_id: str, rel: str) -> str:
     return f"/api/runs/{run_id}/files/{rel}"
 
@@ -82,6 +99,10 @@ async def runs(request: Request):
 async def run(request: Request, run_id: str):
     """A run: settings, generations (with contact sheets), best individuals."""
     archive, info = _run(request, run_id)
+    if _is_network(info):
+        from morphogen.search.networks.record import summary
+
+        return summary(archive, run_id)
     problem = Problem.from_dict(info["config"]["problem"])
     gens = [{**g, "sheet": _file_url(run_id, g["sheet"])} for g in archive.generations(run_id)]
     return {
@@ -142,7 +163,7 @@ async def resume(request: Request, run_id: str):
     done = len(archive.generations(run_id))
     if done >= info["generations"]:
         raise MorphogenError(f"run {run_id} has finished all {info['generations']} generations")
-    problem = Problem.from_dict(info["config"]["problem"])
+    problem = _search_problem(info)
     archive.set_status(run_id, "running")
     run = request.app.state.evolve.launch(archive, run_id, problem, info["generations"],
                                           info["population"])
@@ -171,7 +192,7 @@ async def delete(request: Request, run_id: str):
 async def generation(request: Request, run_id: str, gen: int):
     """The individuals of one generation."""
     archive, info = _run(request, run_id)
-    problem = Problem.from_dict(info["config"]["problem"])
+    problem = _search_problem(info)
     rows = archive.individuals(run_id, gen)
     if not rows:
         raise MorphogenError(f"run {run_id} has no generation {gen} yet")
@@ -185,7 +206,7 @@ async def individual_config(request: Request, run_id: str, gen: int, idx: int):
     import json
 
     archive, info = _run(request, run_id)
-    problem = Problem.from_dict(info["config"]["problem"])
+    problem = _search_problem(info)
     rows = [r for r in archive.individuals(run_id, gen) if r["idx"] == idx]
     if not rows:
         raise MorphogenError(f"run {run_id} has no individual {idx} in generation {gen}")

@@ -246,3 +246,33 @@ def show(archive: Archive, run_id: str) -> str:
                 lines.append(f"    {row['reaction']:<28} k = {row['k']:.2g}")
         lines.append(f"  replay: morphogen simulate --config {r['dir']}/best/best_1.json")
     return "\n".join(lines)
+
+
+def summary(archive: Archive, run_id: str, k: int = 3) -> dict[str, Any]:
+    """A network run for the web app's Runs page: its settings, one row per generation (best,
+    mean, valid count) and the ``k`` fittest archived genomes, each with its non-zero reactions
+    and its ``run.json`` (:func:`best_run_file`), which Explore and ``morphogen simulate
+    --config`` replay."""
+    r = archive.run(run_id)
+    c = r["config"]
+    p, ev = c["problem"], c["problem"]["ev"]
+    spec = spec_from_dict(p["spec"])
+    best = []
+    for b in archive.best(run_id, k):
+        reactions = [f"{row['reaction']}  k = {row['k']:.3g}"
+                     for row in describe(vector_genome(b["genome"], spec), spec) if row["k"]]
+        best.append({"gen": b["gen"], "idx": b["idx"], "fitness": b["fitness"],
+                     "reactions": reactions,
+                     "run_file": best_run_file(b, spec, ev, run_id, Path(r["dir"]))})
+    return {
+        "kind": KIND, "id": run_id, "model": r["model"], "status": r["status"],
+        "strategy": r["strategy"], "fitness": r["fitness"], "population": r["population"],
+        "generations": r["generations"], "species": list(spec.species),
+        "evaluation": {"size": int(ev["size"]), "dt": float(ev["dt"]),
+                       "t_start": float(ev["t_start"]), "interval": float(ev["interval"]),
+                       "rounds": int(ev["rounds"])},
+        "history": [{key: g[key] for key in ("gen", "best", "mean", "valid", "seconds")}
+                    for g in archive.generations(run_id)],
+        "best": best,
+        "resume": resume_hint(run_id, r["dir"]),
+    }

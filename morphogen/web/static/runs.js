@@ -53,6 +53,10 @@ export class Runs {
     try {
       const run = await api(`/api/runs/${id}`);
       this.run = run;
+      if (run.kind === 'networks') {
+        this.detail.replaceChildren(...this.network(run));
+        return;
+      }
       const genes = run.genes.map((g) => `${g.name} ∈ [${fmt(g.low)}, ${fmt(g.high)}]`).join(', ');
       const p = run.problem;
       const picker = el('select', { id: 'runs-gen', 'aria-label': 'generation' },
@@ -91,6 +95,34 @@ export class Runs {
         await this.generation(Number(picker.value));
       }
     } catch (err) { showError(this.error, err.message); }
+  }
+
+  // a reaction-network run (`morphogen networks` or the Evolve page's network mode): its
+  // evaluation, fitness per generation and fittest networks, each opening in Explore
+  network(run) {
+    const ev = run.evaluation;
+    const rows = run.history.map((g) => el('tr', {},
+      ...[g.gen, fmt(g.best ?? NaN), fmt(g.mean ?? NaN), g.valid, fmt(g.seconds)].map((v) => el('td', { text: v }))));
+    const best = run.best.map((b) => {
+      const config = b.run_file.config;
+      const tile = el('button', { type: 'button', class: 'network-best', title: 'open in Explore' },
+        el('strong', { text: `fitness ${fmt(b.fitness)} · generation ${b.gen} #${b.idx}` }),
+        el('pre', { class: 'small', text: b.reactions.join('\n') }));
+      tile.addEventListener('click', () => this.app.openInExplore({
+        model: { equations: config.model_source }, init: 'noise', seed: 0, size: Math.max(64, config.size[0]),
+      }));
+      return tile;
+    });
+    return [
+      el('h3', { text: `${run.model} · ${run.strategy} · ${run.fitness}` }),
+      el('p', { class: 'muted small', text: `species ${run.species.join(', ')}; evaluation grid ${ev.size}×${ev.size}, dt = ${fmt(ev.dt)}, scored from t = ${fmt(ev.t_start)} every ${fmt(ev.interval)} (${ev.rounds} rounds); ${run.history.length}/${run.generations} generations` }),
+      el('p', { class: 'muted small', id: 'runs-network-resume', text: run.history.length < run.generations ? run.resume.replace(/^.*; /, 'To continue: ') : '' }),
+      el('h4', { text: 'Fittest networks' }),
+      best.length ? el('div', { class: 'network-list' }, ...best) : el('p', { class: 'muted', text: 'no generation recorded yet' }),
+      el('h4', { text: 'Generations' }),
+      el('table', { class: 'runs' }, el('thead', {}, el('tr', {}, ...['gen', 'best', 'mean', 'valid', 'seconds'].map((h) => el('th', { text: h })))),
+        el('tbody', {}, ...rows)),
+    ];
   }
 
   async resume(id) {
