@@ -32,6 +32,7 @@ from morphogen.initial import make_initial
 from morphogen.models.model import Model
 from morphogen.simulate import OVERFLOW, integrate
 from morphogen.steppers import make_step, max_stable_dt
+from morphogen.web.brush import brush_values, painter
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.limits import Limits, choice, integer, number
 from morphogen.web.recording import Recorder
@@ -92,7 +93,7 @@ class Engine:
 
                 self.advance[n] = jax.jit(run)
             if self.paint is None:
-                self.paint = jax.jit(_painter(self.grid))
+                self.paint = jax.jit(painter(self.grid))
             return self.advance[n]
 
 
@@ -101,29 +102,6 @@ def _pixels(f: Any, lo: Any, hi: Any) -> Any:
     mapping of both the jitted frame and the still picture."""
     scale = jnp.where(hi > lo, 255.0 / jnp.maximum(hi - lo, 1e-30), 0.0)
     return jnp.clip(jnp.round((f - lo) * scale), 0, 255).astype(jnp.uint8)
-
-
-def _painter(grid: Grid) -> Callable:
-    """``paint(u, cx, cy, r, values)``: set a disc of radius ``r`` (grid-width units) around
-    ``(cx, cy)`` in ``[0, 1]^2`` to ``values`` ``(S,)``; distances wrap around on the torus.
-    A species whose value is NaN is left as it is (a brush on one species).
-
-    On an ``h x w`` grid a height fraction ``dy`` is ``dy h / w`` widths, so the disc stays round.
-    """
-    x = jnp.asarray(grid.coords["x"])
-    y = jnp.asarray(grid.coords["y"])
-    aspect = grid.shape[0] / grid.shape[1]
-
-    def paint(u, cx, cy, r, values):
-        ddx = jnp.abs(x - cx)
-        ddy = jnp.abs(y - cy)
-        ddx = jnp.minimum(ddx, 1.0 - ddx)
-        ddy = jnp.minimum(ddy, 1.0 - ddy) * aspect
-        mask = (ddx**2 + ddy**2) <= r**2
-        keep = jnp.isnan(values)[:, None, None]
-        return jnp.where(mask[None] & ~keep, values[:, None, None].astype(u.dtype), u)
-
-    return paint
 
 
 _ENGINES: OrderedDict[tuple, Engine] = OrderedDict()
@@ -281,25 +259,11 @@ class LiveSim:
         x = number(x, "x", 0.0, 1.0)
         y = number(y, "y", 0.0, 1.0)
         r = number(radius, "radius", 0.0, 0.5)
-        mode = choice(mode, "paint mode", ("excite", "erase", "value"))
-        model = self.engine.model
-        if species in (None, "") and mode == "value":
-            raise MorphogenError("painting a value needs a species; choose one in Brush species")
-        index = None if species in (None, "") else model.species_index(species)
-        amount = number(value, "brush value", -1e6, 1e6) if mode == "value" else 0.0
         with self.lock:
             self._touch()
+            vals = brush_values(self.engine.model, self.values, mode, species, value)
             if stroke:
                 self.undo_stack = [*self.undo_stack, self.u][-UNDO_DEPTH:]
-            if mode == "value":
-                vals = np.zeros(len(model.species), np.float32)
-            else:
-                vals = np.asarray(model.excited_state(self.values) if mode == "excite" else
-                                  model.ground_state(self.values), np.float32).copy()
-            if index is not None:
-                chosen = amount if mode == "value" else vals[index]
-                vals = np.full(len(model.species), np.nan, np.float32)
-                vals[index] = chosen
             self.engine.program(self.steps_per_frame)
             # row 0 of the picture is y = 0 of the grid (images are drawn top-down)
             self.u = self.engine.paint(self.u, x, y, r, jnp.asarray(vals, jnp.float32))
