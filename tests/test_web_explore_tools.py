@@ -131,3 +131,29 @@ def test_recording_downloads_the_frames_shown_as_gif_and_mp4(client):  # noqa: F
     assert mp4.headers["content-type"] == "video/mp4" and mp4.content[4:8] == b"ftyp"
     bad = client.get(f"/api/live/{sid}/recording", params={"format": "avi"})
     assert bad.status_code == 400 and "gif, mp4" in bad.json()["error"]
+
+
+def test_an_image_starts_one_species_and_undoes_like_a_stroke(client):  # noqa: F811
+    """A 2 x 4 PNG (left half black, right half white) on a 16 x 32 grid: v is lo on the left
+    half and hi on the right (nearest neighbour), u is untouched; undo restores v."""
+    import base64
+
+    sid = new_session(client, init="uniform", size=32, height=16)["id"]
+    before = sim_of(client, sid).state()
+    img = np.zeros((2, 4), np.uint8)
+    img[:, 2:] = 255
+    png = base64.b64encode(iio.imwrite("<bytes>", img, extension=".png")).decode()
+    r = client.post(f"/api/live/{sid}/image", json={"png": png, "species": "v", "lo": 0.1,
+                                                    "hi": 0.6})
+    assert r.status_code == 200 and r.json()["undo"] == 1
+    after = sim_of(client, sid).state()
+    np.testing.assert_allclose(after[1][:, :16], 0.1, rtol=1e-6)
+    np.testing.assert_allclose(after[1][:, 16:], 0.6, rtol=1e-6)
+    np.testing.assert_array_equal(after[0], before[0])
+    client.post(f"/api/live/{sid}/undo").raise_for_status()
+    np.testing.assert_array_equal(sim_of(client, sid).state(), before)
+    for body, fragment in (({"png": "not base64!"}, "base64"),
+                           ({"png": base64.b64encode(b"GIF89a").decode()}, "only PNG"),
+                           ({"png": png, "species": "w"}, "unknown species")):
+        r = client.post(f"/api/live/{sid}/image", json=body)
+        assert r.status_code == 400 and fragment in r.json()["error"], r.json()

@@ -19,7 +19,8 @@ from fastapi.responses import JSONResponse, Response
 from morphogen import guard
 from morphogen.errors import MorphogenError
 from morphogen.web import export
-from morphogen.web.limits import JSONBody, OptionalBody, integer, run_limited
+from morphogen.web.image_input import decode_png, image_field
+from morphogen.web.limits import JSONBody, OptionalBody, integer, number, run_limited
 from morphogen.web.live import Frame, LiveSim
 from morphogen.web.recording import FORMATS
 
@@ -146,6 +147,19 @@ async def paint(request: Request, sid: str, body: JSONBody):
 
     await run_limited(work, request.app.state.limits.request_timeout_s, "painting")
     return {"ok": True, "undo": len(sim.undo_stack)}
+
+
+@router.post("/{sid}/image")
+async def image(request: Request, sid: str, body: JSONBody):
+    """Start one species from an image: ``{png: base64, species, lo, hi}`` (grey levels mapped
+    to ``lo..hi``, see :mod:`morphogen.web.image_input`); undone like a stroke."""
+    sim = _sim(request, sid)
+    grey = decode_png(body.get("png"))
+    lo = number(body.get("lo", 0.0), "lo", -1e6, 1e6)
+    hi = number(body.get("hi", 1.0), "hi", -1e6, 1e6)
+    field = image_field(grey, tuple(sim.engine.grid.shape), lo, hi)
+    left = sim.load_species(body.get("species"), field)
+    return {"ok": True, "undo": left}
 
 
 @router.post("/{sid}/undo")

@@ -269,6 +269,20 @@ class LiveSim:
             self.u = self.engine.paint(self.u, x, y, r, jnp.asarray(vals, jnp.float32))
             self.error = None
 
+    def load_species(self, species: Any, field: np.ndarray) -> int:
+        """Replace one species' state by ``field`` ``(h, w)`` (an uploaded image); one undo
+        step like a stroke. Returns the strokes that can be undone."""
+        with self.lock:
+            self._touch()
+            index = self.engine.model.species_index(species)
+            if field.shape != tuple(self.engine.grid.shape):
+                raise MorphogenError(f"the field is {field.shape}, the grid "
+                                     f"{self.engine.grid.shape}")
+            self.undo_stack = [*self.undo_stack, self.u][-UNDO_DEPTH:]
+            self.u = self.u.at[index].set(jnp.asarray(field, self.u.dtype))
+            self.error = None
+            return len(self.undo_stack)
+
     def undo(self) -> int:
         """Put back the state from before the last brush stroke (time and everything that grew
         since stay as they are: only the painted cells' history is replaced, as in a paint

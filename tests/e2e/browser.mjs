@@ -143,6 +143,11 @@ const SCENARIOS = {
       species: Array.from(document.querySelectorAll('#ex-paint-species option'), (o) => o.value),
       width: document.getElementById('ex-canvas').getBoundingClientRect().width,
     }));
+    // a PNG as v's starting state: one more undo step, and v now varies over the grid
+    await page.selectOption('#ex-paint-species', 'v');
+    await page.setInputFiles('#ex-image', new URL('../../docs/images/web/mesh.png', import.meta.url).pathname);
+    await page.waitForFunction(() => document.getElementById('ex-undo').textContent === 'Undo stroke (1)', null, { timeout: 30000 });
+    brush.imageUndo = await page.textContent('#ex-undo');
     await page.click('#ex-run');
     await waitFrames(page, 20);
     await page.screenshot({ path: join(out, 'paint.png') });

@@ -138,6 +138,7 @@ def test_painting_a_perturbation(server):
     brush = data["brush"]
     assert brush["cursor"].startswith('url("data:image/png') and brush["species"] == ["", "u", "v"]
     assert abs(brush["ring"] - 2 * 0.03 * brush["width"]) <= 1  # the default radius 0.03
+    assert brush["imageUndo"] == "Undo stroke (1)"  # an uploaded PNG became v's state
 
 
 def test_one_evolve_generation_with_two_favourites(server):

@@ -125,7 +125,30 @@ export class ExploreTools {
     this.x.canvas.addEventListener('pointerup', up);
     this.x.canvas.addEventListener('pointercancel', up);
     this.$('ex-brush').addEventListener('input', () => this.brushCursor());
+    this.$('ex-image').addEventListener('change', () => this.loadImage());
     window.addEventListener('resize', () => this.brushCursor());
+  }
+
+  // a PNG's grey levels (0 to the Value box) become the chosen species' state; undo takes it back
+  async loadImage() {
+    const file = this.$('ex-image').files[0];
+    if (!file || !this.x.sid) return;
+    const png = await new Promise((resolve) => {
+      const reader = new FileReader();
+      reader.onload = () => resolve(reader.result);
+      reader.readAsDataURL(file);
+    });
+    try {
+      const res = await api(`/api/live/${this.x.sid}/image`, {
+        method: 'POST',
+        body: { png, species: this.$('ex-paint-species').value || this.$('ex-species').value,
+          lo: 0, hi: Number(this.$('ex-paint-value').value) },
+      });
+      this.setUndo(res.undo);
+      showError(this.$('ex-error'), '');
+      if (!this.x.running) this.x.request(true, true);
+    } catch (err) { this.x.fail(err); }
+    this.$('ex-image').value = '';
   }
 
   // the species a stroke may paint (all, or one), after each model change
