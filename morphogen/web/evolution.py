@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import threading
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,6 +35,29 @@ MAX_ACTIVE = 4
 
 class Stopped(MorphogenError):
     """The run was stopped from the page (or waited too long for a choice)."""
+
+
+def run_to_end(run: Any, body: Callable[[], None]) -> None:
+    """Do a run's whole work, ``body``, in its thread, and leave the run (``state``,
+    ``message``/``error``, ``progress``) and its archive row saying how it ended: ``done``,
+    ``stopped`` from the page, ``failed`` with a one-line error, or ``failed`` with a bug's
+    message (a bug must reach the page as a message, not a hang)."""
+    try:
+        body()
+    except Stopped as exc:
+        run.state, run.message = "stopped", str(exc)
+        run.archive.set_status(run.run_id, "stopped")
+    except MorphogenError as exc:
+        run.state, run.error = "error", str(exc)
+        run.archive.set_status(run.run_id, "failed")
+    except Exception as exc:
+        traceback.print_exc()
+        run.state, run.error = "error", f"internal error: {type(exc).__name__}: {exc}"
+        run.archive.set_status(run.run_id, "failed")
+    else:
+        run.archive.set_status(run.run_id, "done")
+        run.state, run.progress = "done", 1.0
+        run.message = f"finished {run.total} generations"
 
 
 @dataclass
@@ -89,22 +113,12 @@ class EvolveRun:
         return self._chosen or []
 
     def thread_main(self) -> None:
-        try:
+        def body() -> None:
             executor = _Tracked(LocalExecutor(self.problem), self)
             evolve(self.run_id, self.archive, executor, select=self.select,
                    log=self.log.append)
-        except Stopped as exc:
-            self.state, self.message = "stopped", str(exc)
-            self.archive.set_status(self.run_id, "stopped")
-        except MorphogenError as exc:
-            self.state, self.error = "error", str(exc)
-            self.archive.set_status(self.run_id, "failed")
-        except Exception as exc:  # a bug must reach the page as a message, not a hang
-            traceback.print_exc()
-            self.state, self.error = "error", f"internal error: {type(exc).__name__}: {exc}"
-        else:
-            self.state, self.progress = "done", 1.0
-            self.message = f"finished {self.total} generations"
+
+        run_to_end(self, body)
 
     def to_json(self) -> dict[str, Any]:
         """Status for the page; while waiting for a choice, the pictures to choose from."""

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import hashlib
 import threading
-import traceback
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,6 +27,7 @@ import numpy as np
 from morphogen.errors import MorphogenError
 from morphogen.search.archive import Archive
 from morphogen.search.fitness import INVALID
+from morphogen.web.evolution import Stopped, run_to_end
 from morphogen.web.limits import Limits, check_budget, choice, integer, number
 
 SHOWN = 3
@@ -37,10 +37,6 @@ MAX_GENERATIONS = 50
 DEFAULTS = {"mode": "network", "population": 12, "generations": 5, "size": 16, "dt": 0.1,
             "t_start": 100.0, "interval": 25.0, "rounds": 3, "m_max": 12, "seed": 0}
 """A run of a minute or so on two cores: Table 1's loop on a 16² grid and a short evaluation."""
-
-
-class Stopped(MorphogenError):
-    """The run was stopped from the page."""
 
 
 @dataclass(frozen=True)
@@ -148,24 +144,10 @@ class NetworkRun:
             self.progress = min(self._done / per_gen, 1.0)
             self.message = f"generation {self.gen}/{self.total}: {self._done} of {per_gen} steps"
 
-        try:
-            run(s.spec, s.template, self.out, ops=s.ops, ev=s.ev, population=s.population,
-                generations=s.generations, seed=s.seed, log=self.log.append,
-                progress=tick, evaluator=self._evaluate, on_generation=on_generation)
-        except Stopped as exc:
-            self.state, self.message = "stopped", str(exc)
-            self.archive.set_status(self.run_id, "stopped")
-        except MorphogenError as exc:
-            self.state, self.error = "error", str(exc)
-            self.archive.set_status(self.run_id, "failed")
-        except Exception as exc:  # a bug must reach the page as a message, not a hang
-            traceback.print_exc()
-            self.state, self.error = "error", f"internal error: {type(exc).__name__}: {exc}"
-            self.archive.set_status(self.run_id, "failed")
-        else:
-            self.archive.set_status(self.run_id, "done")
-            self.state, self.progress = "done", 1.0
-            self.message = f"finished {self.total} generations"
+        run_to_end(self, lambda: run(
+            s.spec, s.template, self.out, ops=s.ops, ev=s.ev, population=s.population,
+            generations=s.generations, seed=s.seed, log=self.log.append, progress=tick,
+            evaluator=self._evaluate, on_generation=on_generation))
 
     def _evaluate(self, pop: Any, u0: Any, spec: Any, ev: Any, progress: Any):
         """:func:`~morphogen.search.networks.evolve.evaluate`, keeping the final states for
