@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
@@ -45,12 +46,17 @@ def test_every_library_model_evolves_by_favourites(setup, name):
     assert status["state"] == "choose", status
     assert len(status["images"]) == 2
     assert client.get(status["images"][1]).headers["content-type"] == "image/png"
+    shown = status["params"]  # the gene values each picture shows on hover
     assert client.post(f"/api/evolve/{run}/select", json={"indices": [5]}).status_code == 400
     client.post(f"/api/evolve/{run}/select", json={"indices": [1]}).raise_for_status()
     status = wait(client, run, ("done",))
     assert status["state"] == "done", status
     # Skaggs eq. 3.9: the chosen share lambda of the fitness, the others 1 - lambda
     rows = Archive(archive, create=False).individuals(run, 1)
+    genes = [g["name"] for g in defaults["genes"]]
+    assert [list(p) for p in shown] == [genes, genes]
+    np.testing.assert_allclose([[p[g] for g in genes] for p in shown],
+                               [row["genome"] for row in rows], rtol=1e-6)
     fitness = [row["fitness"] for row in rows]
     lam = HUMAN_LAMBDA
     assert fitness == pytest.approx([1 - lam, lam], rel=1e-6)

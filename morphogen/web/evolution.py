@@ -76,6 +76,7 @@ class EvolveRun:
     message: str = ""
     error: str | None = None
     log: list[str] = field(default_factory=list)
+    genomes: np.ndarray | None = None  # the generation being evaluated or chosen from
     _chosen: list[int] | None = None
     _wake: threading.Event = field(default_factory=threading.Event)
     _stop: threading.Event = field(default_factory=threading.Event)
@@ -133,6 +134,10 @@ class EvolveRun:
                 f"/api/runs/{self.run_id}/files/generations/gen_{self.gen:03d}/ind_{i:02d}.png"
                 for i in range(self.population)
             ]
+            if self.genomes is not None:  # each picture's gene values, shown on hover
+                out["params"] = [{g.name: float(v) for g, v in zip(self.problem.genes, row,
+                                                                    strict=True)}
+                                 for row in self.genomes]
         return out
 
 
@@ -162,7 +167,7 @@ class _Tracked:
             if update is not None:
                 update(n)
 
-        run.progress, run.state = 0.0, "running"
+        run.progress, run.state, run.genomes = 0.0, "running", np.asarray(genomes)
         return self.inner.evaluate(genomes, key, tick)
 
 

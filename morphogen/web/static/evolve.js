@@ -218,7 +218,7 @@ export class Evolve {
     } else if (st.state === 'choose' && this.shownGen !== st.gen) {
       this.shownGen = st.gen;
       this.picked.clear();
-      this.showTiles(st.images.map((src, i) => ({ src, caption: `#${i}`, idx: i })), true);
+      this.showTiles(st.images.map((src, i) => ({ src, caption: `#${i}`, idx: i, params: st.params?.[i] })), true);
     } else if (st.state !== 'choose' && st.fitness !== 'user' || st.state === 'done') {
       const last = st.state === 'done' ? st.total : st.gen - 1;
       if (last >= 1 && this.shownGen !== -last) {
@@ -226,7 +226,7 @@ export class Evolve {
         const g = await api(`/api/runs/${st.run}/generations/${last}`);
         this.showTiles(g.individuals.map((ind) => ({
           src: ind.image, caption: `#${ind.idx} f=${fmt(ind.fitness ?? NaN)}`, idx: ind.idx,
-          open: { ...g.explore, params: ind.params },
+          open: { ...g.explore, params: ind.params }, params: ind.params,
         })), false);
       }
     }
@@ -283,7 +283,10 @@ export class Evolve {
     const cols = Math.ceil(Math.sqrt(items.length * 1.5));
     grid.style.gridTemplateColumns = `repeat(${cols}, minmax(60px, 160px))`;
     grid.replaceChildren(...items.map((it) => {
-      const tile = el('button', { type: 'button', class: 'tile', 'data-idx': it.idx, title: choosing ? 'choose' : 'open in Explore' },
+      // hovering a tile shows its parameter values
+      const values = Object.entries(it.params ?? {}).map(([k, v]) => `${k} = ${fmt(v)}`).join('\n');
+      const title = `${choosing ? 'choose' : 'open in Explore'}${values ? `\n${values}` : ''}`;
+      const tile = el('button', { type: 'button', class: 'tile', 'data-idx': it.idx, title },
         el('img', { src: it.src, alt: it.caption }), el('span', { class: 'cap', text: it.caption }));
       tile.addEventListener('click', () => {
         if (choosing) {
