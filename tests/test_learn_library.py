@@ -35,13 +35,14 @@ def test_models_command_lists_the_shipped_rules(capsys):
     assert "x0, x1" in capsys.readouterr().out
 
 
-def test_a_rule_runs_from_its_name_in_the_cli_run_files_and_the_web_catalog(tmp_path):
+def test_a_rule_runs_from_its_name_in_the_cli_run_files_and_the_web_catalog(tmp_path,
+                                                                           monkeypatch):
     from morphogen.web.catalog import describe, library_names, resolve_model
     from morphogen.web.limits import Limits
 
-    out = tmp_path / "run"
-    assert main(["simulate", "neural:dots", "--size", "24x24", "--steps", "30", "--out",
-                 str(out), "--quiet"]) == 0
+    monkeypatch.chdir(tmp_path)  # the default folder is out/neural-dots: no colon in a path
+    out = tmp_path / "out" / "neural-dots"
+    assert main(["simulate", "neural:dots", "--size", "24x24", "--steps", "30", "--quiet"]) == 0
     run = json.loads((out / "run.json").read_text())
     assert run["config"]["model"] == "neural:dots"
     state = np.load(out / "state.npz")

@@ -70,7 +70,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--animation", choices=("gif", "mp4"), default=None, help="animation format")
     p.add_argument("--unsafe", action="store_true", help="skip the stability check on dt")
     p.add_argument("--x64", action="store_true", help="compute in float64 (default float32)")
-    p.add_argument("--out", default=None, help="output directory (default out/MODEL)")
+    p.add_argument("--out", default=None,
+                   help="output directory (default out/MODEL; neural:NAME gives out/neural-NAME)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -134,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
     from morphogen.runfile import execute
 
     config = config_from_args(args)
-    out = Path(args.out or Path("out") / Path(config.model).stem)
+    out = Path(args.out or Path("out") / Path(config.model).stem.replace(":", "-"))
     solution = execute(config, out, progress=options.show_progress(args))
     rejected = "" if solution.rejected_steps is None else f", {solution.rejected_steps} rejected"
     print(f"wrote {out}/ ({solution.steps} steps{rejected}, t={solution.t:g}, "
