@@ -49,9 +49,12 @@ def test_printing_commands_load_no_heavy_module(argv):
 
 def test_models_listing_without_jax_shows_every_model():
     from morphogen.models.library import LIBRARY
+    from morphogen.models.neural_library import model_names
 
     out = _probe("models")["out"]
-    assert [line.split(":")[0] for line in out.split("\n\n")] == list(LIBRARY)
+    names = [line.split(": ")[0] for line in out.split("\n\n")]
+    assert names == list(LIBRARY) + model_names()
+    assert "neural:dots" in names
     assert "F=0.037, k=0.06" in out
 
 
