@@ -45,15 +45,15 @@ def run_to_end(run: Any, body: Callable[[], None]) -> None:
     try:
         body()
     except Stopped as exc:
-        run.state, run.message = "stopped", str(exc)
         run.archive.set_status(run.run_id, "stopped")
+        run.state, run.message = "stopped", str(exc)
     except MorphogenError as exc:
-        run.state, run.error = "error", str(exc)
         run.archive.set_status(run.run_id, "failed")
+        run.state, run.error = "error", str(exc)
     except Exception as exc:
         traceback.print_exc()
-        run.state, run.error = "error", f"internal error: {type(exc).__name__}: {exc}"
         run.archive.set_status(run.run_id, "failed")
+        run.state, run.error = "error", f"internal error: {type(exc).__name__}: {exc}"
     else:
         run.archive.set_status(run.run_id, "done")
         run.state, run.progress = "done", 1.0
