@@ -176,6 +176,11 @@ def describe_all(snapshots: Array) -> dict[str, Array]:
     return {**describe(snapshots[-1]), **describe_dynamics(snapshots)}
 
 
+_DESCRIBE_BATCH = jax.jit(jax.vmap(describe_all))
+"""One jitted program per batch shape, kept between calls (a new ``jit(vmap(...))`` per call
+compiled again every time: 7 s for a 6-tile atlas of 16² on 2 cores)."""
+
+
 def describe_batch(snapshots: Array) -> dict[str, Array]:
     """:func:`describe_all` over a batch ``(B, T + 1, H, W)``: a dict of ``(B,)`` arrays."""
-    return jax.jit(jax.vmap(describe_all))(jnp.asarray(snapshots))
+    return _DESCRIBE_BATCH(jnp.asarray(snapshots))
