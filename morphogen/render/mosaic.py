@@ -198,12 +198,15 @@ def frame_tiles(
     colours: Mapping[str, str],
     *,
     width: int = 2,
+    text: bool = True,
 ) -> np.ndarray:
     """Frame every tile in its label's colour and write the label in its top-left corner.
 
     Args:
         tiles: ``(..., H, W, 3)`` uint8; labels: the leading shape of ``tiles``, strings.
         colours: label -> ``"#rrggbb"``; the text is white on that colour.
+        text: write the label; ``False`` draws the frame only (a page that names the tiles
+            in a legend and on hover, where small tiles have no room for words).
 
     Returns:
         a copy of ``tiles`` with the frames and labels drawn.
@@ -223,9 +226,10 @@ def frame_tiles(
         image = Image.fromarray(out[i])
         draw = ImageDraw.Draw(image)
         draw.rectangle([0, 0, w - 1, h - 1], outline=colour, width=width)
-        text = label
-        draw.rectangle([0, 0, math.ceil(_width(text, size)) + 3, _line_height(size)], fill=colour)
-        draw.text((2, 0), text, font=_font(size), fill=(255, 255, 255))
+        if text:
+            draw.rectangle([0, 0, math.ceil(_width(label, size)) + 3, _line_height(size)],
+                           fill=colour)
+            draw.text((2, 0), label, font=_font(size), fill=(255, 255, 255))
         out[i] = np.asarray(image)
     return out.reshape(tiles.shape)
 

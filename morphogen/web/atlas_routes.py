@@ -7,19 +7,31 @@ batch. The tiles share one colour scale (as in the command's mosaic) and are lai
 image without labels: tile ``(i, j)`` (row ``i`` from the top, column ``j``) sits at pixel
 ``(pad + j (tile + pad), pad + i (tile + pad))``, so the page maps a click to a tile exactly and
 draws the axes itself. Row 0 is the largest ``y`` (``y`` grows upwards, as on a plot).
+
+With ``"families": true`` the atlas keeps each tile's last states and names its pattern family
+(Richard et al. §5.2.2, fig. 9) with the functions of ``morphogen atlas --classify``:
+:func:`morphogen.atlas.classify_atlas` on the shown species, each tile framed in its family's
+colour (:data:`morphogen.patterns.classify.COLOURS`) and ``families.csv`` written by
+:func:`morphogen.atlas.write_families`. The temporal descriptors see ``WATCH + 1`` states
+``min(50, steps // WATCH)`` steps apart at the end of the run (the command's default ``4x50``
+when the run has 200 steps or more).
 """
 
 from __future__ import annotations
 
+import tempfile
+from functools import lru_cache
+from pathlib import Path
 from typing import Any
 
 import imageio.v3 as iio
 import numpy as np
 from fastapi import APIRouter, Request
 
-from morphogen.atlas import Axis, compute_atlas
+from morphogen.atlas import Atlas, Axis, classify_atlas, compute_atlas, write_families
 from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
+from morphogen.patterns.classify import COLOURS, FAMILIES, GRID_ENERGY
 from morphogen.web import batch
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.jobs import Job, Progress
@@ -28,6 +40,8 @@ from morphogen.web.limits import JSONBody, Limits, check_budget, integer, number
 router = APIRouter(prefix="/api/atlas")
 
 PAD = 1
+WATCH = 4
+"""``COUNT`` of the classifier's ``--watch COUNTxGAP``: ``COUNT + 1`` states kept at the end."""
 
 
 def parse_axis(spec: Any, model_params: dict[str, float], which: str, limits: Limits) -> dict:
@@ -49,16 +63,21 @@ def parse_axis(spec: Any, model_params: dict[str, float], which: str, limits: Li
             "values": np.linspace(lo, hi, n).tolist() if n > 1 else [lo]}
 
 
+@lru_cache(maxsize=1)
+def _grid_energy():
+    """The jitted grid-scale energy of a batch of fields, built once (run op by op instead,
+    the descriptor took 12 s for six 16² tiles on 2 cores; compiled, 0.4 s, then microseconds)."""
+    import jax
+
+    from morphogen.patterns.descriptors import describe
+
+    return jax.jit(jax.vmap(lambda f: describe(f)["grid_energy"]))
+
+
 def _grid_scale(fields: np.ndarray) -> np.ndarray:
     """Tiles whose power sits at grid scale (a checkerboard: a numerical instability, not a
     pattern), by the classifier's rule (:data:`morphogen.patterns.classify.GRID_ENERGY`)."""
-    import jax
-
-    from morphogen.patterns.classify import GRID_ENERGY
-    from morphogen.patterns.descriptors import describe
-
-    energy = jax.vmap(lambda f: describe(f)["grid_energy"])(np.nan_to_num(fields))
-    return np.asarray(energy) > GRID_ENERGY
+    return np.asarray(_grid_energy()(np.nan_to_num(fields))) > GRID_ENERGY
 
 
 @router.post("")
@@ -75,6 +94,13 @@ async def start(request: Request, body: JSONBody):
     run = batch.settings(body, model, base, lim, tile_default=64)
     check_budget(run["tile"] ** 2, run["steps"], x["n"] * y["n"], lim)
     cmap = batch.colour_map(body.get("cmap", "viridis"))
+    families = body.get("families", False)
+    if not isinstance(families, bool):
+        raise MorphogenError("families must be true or false")
+    if families and run["steps"] < WATCH:
+        raise MorphogenError(f"naming pattern families needs at least {WATCH} steps (the last "
+                             "states show whether a pattern still moves); run longer")
+    watch = (WATCH, min(50, run["steps"] // WATCH)) if families else None
 
     def work(job: Job, progress: Progress) -> dict[str, Any]:
         n_runs = x["n"] * y["n"]
@@ -91,17 +117,29 @@ async def start(request: Request, body: JSONBody):
             model, Grid((run["tile"], run["tile"])),
             Axis(x["name"], np.asarray(x["values"])), Axis(y["name"], np.asarray(y["values"])),
             params=base, steps=run["steps"], dt=run["dt"], init=run["init"], seed=run["seed"],
-            on_chunk=chunk,
+            on_chunk=chunk, watch=watch,
         )
         progress(1.0, f"{n_runs} runs in {atlas.wall_time:.1f} s")
         # rows from the top: largest y first
         states = atlas.states[::-1].reshape(n_runs, *atlas.states.shape[2:])
-        grid_scale = _grid_scale(states[:, model.species_index(run["species"])])
+        shown = model.species_index(run["species"])
+        named = None
+        if families:  # the descriptors include the grid-scale energy of the final states
+            progress(1.0, f"{n_runs} runs in {atlas.wall_time:.1f} s; naming their families")
+            labels, descriptors = classify_atlas(atlas, shown)
+            named = _families(job, atlas, labels, descriptors)
+            energy = np.nan_to_num(descriptors["grid_energy"][::-1].reshape(-1))
+            grid_scale = energy > GRID_ENERGY
+        else:
+            grid_scale = _grid_scale(states[:, shown])
         valid = atlas.valid[::-1] & ~grid_scale.reshape(y["n"], x["n"])
         image = batch.mosaic(states, model, run["species"], cmap, (y["n"], x["n"]), PAD,
-                             valid=valid.reshape(-1))
+                             valid=valid.reshape(-1),
+                             labels=None if named is None else np.ravel(named["labels"]),
+                             colours=COLOURS)
         job.files["atlas.png"] = (iio.imwrite("<bytes>", image, extension=".png"), "image/png")
         return {
+            "families": named,
             "image": f"/api/jobs/{job.id}/files/atlas.png",
             "x": x, "y": y, "tile": run["tile"], "pad": PAD,
             "valid": valid.tolist(), "grid_scale": int(grid_scale.sum()),
@@ -112,3 +150,18 @@ async def start(request: Request, body: JSONBody):
 
     job = request.app.state.jobs.submit("atlas", work)
     return {"job": job.id}
+
+
+def _families(job: Job, atlas: Atlas, labels: np.ndarray,
+              descriptors: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Each tile's family (rows from the top, as the mosaic), the count and colour of every
+    family found (in :data:`~morphogen.patterns.classify.FAMILIES` order), and ``families.csv``
+    among the job's files, exactly as ``morphogen atlas --classify`` writes it, from
+    :func:`morphogen.atlas.classify_atlas`'s ``(NY, NX)`` labels and descriptors."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = write_families(Path(tmp) / "families.csv", atlas, labels, descriptors)
+        job.files["families.csv"] = (path.read_bytes(), "text/csv")
+    counts = {f: int((labels == f).sum()) for f in FAMILIES if (labels == f).any()}
+    return {"labels": labels[::-1].tolist(), "counts": counts,
+            "colours": {f: COLOURS[f] for f in counts},
+            "csv": f"/api/jobs/{job.id}/files/families.csv"}

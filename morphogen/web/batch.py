@@ -10,6 +10,7 @@ import numpy as np
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model
 from morphogen.render.colour import colour_limits, colourise, parse_cmap
+from morphogen.render.mosaic import frame_tiles
 from morphogen.web.limits import Limits, choice, integer, number
 from morphogen.web.live import INITIAL_KINDS
 
@@ -46,21 +47,28 @@ def colour_map(name: Any) -> str:
 
 
 def mosaic(states: np.ndarray, model: Model, species: str, cmap: str,
-           shape: tuple[int, int], pad: int, valid: np.ndarray | None = None) -> np.ndarray:
+           shape: tuple[int, int], pad: int, valid: np.ndarray | None = None,
+           labels: np.ndarray | None = None,
+           colours: Mapping[str, str] | None = None) -> np.ndarray:
     """Members ``(B, S, n, n)`` laid out row-major in a ``(rows, cols)`` grid with ``pad`` white
     pixels between tiles: ``(rows (n + pad) + pad, cols (n + pad) + pad, 3)`` uint8.
 
     All tiles share one colour scale, the range of the valid members (``valid`` ``(B,)``);
-    blown-up members show in the NaN colour.
+    blown-up members show in the NaN colour. With ``labels`` ``(B,)`` (e.g. pattern families)
+    every tile is framed in its label's colour from ``colours``
+    (:func:`morphogen.render.mosaic.frame_tiles`, frames only: the page names them).
     """
     fields = np.asarray(states[:, model.species_index(species)], np.float64)
     ok = np.ones(len(fields), bool) if valid is None else np.asarray(valid, bool)
     lo, hi = colour_limits(fields[ok] if ok.any() else fields)
+    tiles = np.stack([colourise(f, cmap, lo, hi) for f in fields])
+    if labels is not None:
+        tiles = frame_tiles(tiles, np.asarray(labels), colours or {}, text=False)
     rows, cols = shape
     n = fields.shape[1]
     out = np.full((rows * (n + pad) + pad, cols * (n + pad) + pad, 3), 255, np.uint8)
     for idx in range(rows * cols):
         r, c = divmod(idx, cols)
         y, x = pad + r * (n + pad), pad + c * (n + pad)
-        out[y:y + n, x:x + n] = colourise(fields[idx], cmap, lo, hi)
+        out[y:y + n, x:x + n] = tiles[idx]
     return out

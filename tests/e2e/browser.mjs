@@ -7,6 +7,7 @@ import { writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { chromium } from 'playwright-core';
 import { measure, openRunFile, readoutAndUndo, rectangleImexRecording, resumeAndDelete, urlState } from './tools.mjs';
+import * as features from './features.mjs';
 
 const [scenario, base, out] = process.argv.slice(2);
 const ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
@@ -186,8 +187,10 @@ const SCENARIOS = {
     await page.waitForSelector('#at-error:not([hidden])');
     const staleShown = await page.isVisible('#at-result') || await page.isVisible('#at-save');
     await page.fill('#at-x-hi', String(res.x.hi));
+    await page.check('#at-families'); // and name each tile's pattern family
     await page.click('#at-go');
     await page.waitForSelector('#at-result:not([hidden])', { timeout: 120000 });
+    const families = await features.atlasFamilies(page, out);
     const [mosaic] = await Promise.all([page.waitForEvent('download'), page.click('#at-save')]);
     await mosaic.saveAs(join(out, 'atlas-mosaic.png'));
     // click the tile in the top row, second column: x = second k, y = largest F
@@ -202,7 +205,7 @@ const SCENARIOS = {
     const params = await page.evaluate(() => window.morphogenExplore.state.params);
     const size = await page.evaluate(() => window.morphogenExplore.state.size);
     return { x: res.x, y: res.y, valid: res.valid, params, size, tile: res.tile,
-      sizeShown: await page.inputValue('#ex-size'), staleShown };
+      sizeShown: await page.inputValue('#ex-size'), staleShown, ...families };
   },
 
   async evolve(page) {

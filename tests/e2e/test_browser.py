@@ -206,6 +206,23 @@ def test_atlas_tile_opens_in_explore(server):
     assert not data["staleShown"]  # an error does not sit over the previous atlas
     mosaic = iio.imread(OUT / "atlas-mosaic.png")  # the downloaded mosaic: 6 x 6 tiles of 32
     assert mosaic.shape[0] >= 6 * 32 and mosaic.shape[1] >= 6 * 32
+    # the second atlas named each tile's family: legend with counts and colours, hover, CSV
+    fam = data["families"]
+    from morphogen.patterns.classify import COLOURS
+
+    assert sum(fam["counts"].values()) == 36
+    assert [(f, f"{f} {n}") for f, n in fam["counts"].items()] == \
+        [(name, text) for name, text, _ in data["legend"]]
+    for name, _, colour in data["legend"]:
+        r, g, b = (int(COLOURS[name][i:i + 2], 16) for i in (1, 3, 5))
+        assert colour == f"rgb({r}, {g}, {b})"
+    assert data["hover"].endswith(f" · {fam['labels'][0][1]}")
+    assert data["csv"]["shown"] and data["csv"]["text"].startswith("k,F,family,")
+    assert len(data["csv"]["text"].splitlines()) == 1 + 36
+    # the downloaded mosaic has each tile's frame in its family's colour (top row, column 2)
+    top = mosaic[1, 1 + (32 + 1)]
+    r, g, b = (int(COLOURS[fam["labels"][0][1]][i:i + 2], 16) for i in (1, 3, 5))
+    assert tuple(int(c) for c in top[:3]) == (r, g, b)
 
 
 def test_two_tabs_have_their_own_simulations(server):

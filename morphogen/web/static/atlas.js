@@ -1,5 +1,6 @@
 // Atlas: a map over two parameters, computed on the server as one batched run (a job with
-// progress). Clicking a tile opens that parameter pair in Explore.
+// progress). Clicking a tile opens that parameter pair in Explore. With "families" ticked the
+// server names each tile's pattern family (framed in its colour; legend, hover, families.csv).
 
 import { api, el, fillSelect, fmt, showError, waitForJob } from './api.js';
 
@@ -66,6 +67,7 @@ export class Atlas {
       x: axis('x'), y: axis('y'),
       tile: Number(this.$('at-tile').value),
       cmap: this.$('at-cmap').value,
+      families: this.$('at-families').checked,
     };
     const steps = this.$('at-steps').value;
     if (steps !== '') body.steps = Number(steps);
@@ -93,6 +95,8 @@ export class Atlas {
       // the error replaces the previous atlas: it must not look like this request's result
       this.$('at-result').hidden = true;
       this.$('at-save').hidden = true;
+      this.$('at-csv').hidden = true;
+      this.$('at-legend').hidden = true;
       this.$('at-message').textContent = '';
       this.result = null;
       showError(this.$('at-error'), err.message);
@@ -132,6 +136,22 @@ export class Atlas {
       .filter(Boolean).join(', ');
     this.$('at-message').textContent = `${res.model_name}: ${res.x.n} × ${res.y.n} tiles of ${res.tile}², `
       + `${res.steps} steps of dt = ${fmt(res.dt)}` + (notes ? `; ${notes} (magenta)` : '');
+    this.showFamilies(res.families);
+  }
+
+  // legend (family, colour, tiles) and the families.csv download; nothing without families
+  showFamilies(fam) {
+    const legend = this.$('at-legend');
+    const swatch = (colour) => { // a style set through the DOM: the page's CSP refuses inline style text
+      const box = el('span', { class: 'swatch' });
+      box.style.background = colour;
+      return box;
+    };
+    legend.replaceChildren(...(fam ? Object.entries(fam.counts).map(([name, n]) => el('span', { 'data-family': name },
+      swatch(fam.colours[name]), `${name} ${n}`)) : []));
+    legend.hidden = !fam;
+    this.$('at-csv').hidden = !fam;
+    if (fam) this.$('at-csv').href = fam.csv;
   }
 
   // tile under the pointer: {i (row from the top), j (column)} or null
@@ -150,8 +170,9 @@ export class Atlas {
 
   hover(ev) {
     const t = this.result && this.tileAt(ev);
+    const family = t && this.result.families ? ` · ${this.result.families.labels[t.i][t.j]}` : '';
     this.$('at-hover').textContent = t
-      ? `${this.result.x.name} = ${fmt(t.x)}, ${this.result.y.name} = ${fmt(t.y)}` : '';
+      ? `${this.result.x.name} = ${fmt(t.x)}, ${this.result.y.name} = ${fmt(t.y)}${family}` : '';
   }
 
   open(ev) {
