@@ -13,9 +13,13 @@ time scale. The stiffness ratio
 says how many Euler steps one IMEX step replaces. An ARS(2,2,2) step (two FFT solves per
 species, two reaction evaluations) costs about 10-14 Euler steps on a CPU
 (``bench/results/integrators.json``), so ``auto`` chooses ``imex`` when ``s >``
-:data:`AUTO_RATIO` and the domain allows it (a grid, periodic or no-flux boundaries, constant
-isotropic diffusion), and ``euler`` otherwise. Schnakenberg with ``Dv/Du = 40`` at ``dx = 1``
-has ``s ≈ 17.8`` (imex); Gray-Scott's defaults ``s ≈ 9.8`` (euler).
+:data:`AUTO_RATIO` on a grid where the Fourier solve applies (periodic or no-flux boundaries,
+constant isotropic diffusion), and ``euler`` otherwise. Schnakenberg with ``Dv/Du = 40`` at
+``dx = 1`` has ``s ≈ 17.8`` (imex); Gray-Scott's defaults ``s ≈ 9.8`` (euler).
+
+On meshes, and on grids with Dirichlet boundaries or spatially varying or anisotropic
+diffusion, each implicit solve is a conjugate-gradient iteration (:mod:`morphogen.imex_cg`)
+whose cost grows with the step, so the threshold there is :data:`AUTO_RATIO_CG`.
 """
 
 from __future__ import annotations
@@ -25,12 +29,15 @@ from typing import Any
 import jax.numpy as jnp
 
 from morphogen.errors import MorphogenError
-from morphogen.imex import require_spectral_grid
 from morphogen.models.model import Model, Params, Tensor
 from morphogen.steppers import max_stable_dt
 
 AUTO_RATIO = 12.0
-"""Stiffness ratio ``dt_R / dt_E`` above which ``auto`` picks ``imex``."""
+"""Stiffness ratio ``dt_R / dt_E`` above which ``auto`` picks ``imex`` (Fourier solves)."""
+
+AUTO_RATIO_CG = 40.0
+"""The same where ``imex`` solves diffusion by conjugate gradients (meshes; grids with
+Dirichlet, varying or anisotropic diffusion)."""
 
 STIFF_SCHEME = "imex"
 """The stiff-aware scheme ``auto`` picks: second order and cheaper per step than ETDRK4."""
@@ -38,28 +45,35 @@ STIFF_SCHEME = "imex"
 
 def stiffness_ratio(model: Model, domain: Any, params: Params, *, batched: bool = False
                     ) -> float:
-    """``dt_R / dt_E``: the reaction-limited (IMEX) step over the explicit Euler limit.
-
-    Raises :class:`MorphogenError` when the domain or coefficients cannot take an IMEX step
-    (meshes, Dirichlet boundaries, spatially varying or anisotropic diffusion).
-    """
-    require_spectral_grid(domain, model.species, STIFF_SCHEME)
-    coords = {**{k: jnp.asarray(v) for k, v in domain.coords.items()}, "t": 0.0}
-    first = {k: jnp.asarray(v)[0] if batched else jnp.asarray(v) for k, v in params.items()}
-    if any(isinstance(d, Tensor) or jnp.ndim(d) > 0 for d in model.diffusion(first, coords)):
-        raise MorphogenError("auto: diffusion is spatially varying or anisotropic")
+    """``dt_R / dt_E``: the reaction-limited (IMEX) step over the explicit Euler limit."""
     explicit = max_stable_dt(model, domain, params, "euler", batched=batched)
     reaction = max_stable_dt(model, domain, params, STIFF_SCHEME, batched=batched)
     return reaction / explicit
 
 
+def fourier_solves(model: Model, domain: Any, params: Params, *, batched: bool = False
+                   ) -> bool:
+    """Whether every species' implicit solve is the exact Fourier one: a grid, periodic or
+    no-flux boundaries, constant isotropic diffusion."""
+    if not hasattr(domain, "symbol"):
+        return False
+    if any(bc.kind not in ("periodic", "neumann") for bc in domain.boundaries(model.species)):
+        return False
+    coords = {**{k: jnp.asarray(v) for k, v in domain.coords.items()}, "t": 0.0}
+    first = {k: jnp.asarray(v)[0] if batched else jnp.asarray(v) for k, v in params.items()}
+    return not any(isinstance(d, Tensor) or jnp.ndim(d) > 0
+                   for d in model.diffusion(first, coords))
+
+
 def choose_scheme(model: Model, domain: Any, params: Params, *, batched: bool = False) -> str:
-    """``imex`` when :func:`stiffness_ratio` exceeds :data:`AUTO_RATIO`, else ``euler``."""
+    """``imex`` when :func:`stiffness_ratio` exceeds :data:`AUTO_RATIO` (Fourier solves) or
+    :data:`AUTO_RATIO_CG` (conjugate-gradient solves), else ``euler``."""
     try:
         ratio = stiffness_ratio(model, domain, params, batched=batched)
     except MorphogenError:
         return "euler"
-    return STIFF_SCHEME if ratio > AUTO_RATIO else "euler"
+    fourier = fourier_solves(model, domain, params, batched=batched)
+    return STIFF_SCHEME if ratio > (AUTO_RATIO if fourier else AUTO_RATIO_CG) else "euler"
 
 
 def population_scheme(scheme: str, model: Model, domain: Any, params: Params, *,

@@ -17,8 +17,10 @@ explicit schemes, so a Fourier mode of pure diffusion decays by the scheme's rat
   ``(I - g dt D L) U = u + g dt R(u)``;
   ``(I - g dt D L) u' = u + dt (d R(u) + (1 - d) R(U)) + (1 - g) dt D L U``.
 
-The step size is then limited by the reaction only (:mod:`morphogen.stability`). Dirichlet
-boundaries, spatially varying or anisotropic diffusion and meshes need an explicit scheme.
+The step size is then limited by the reaction only (:mod:`morphogen.stability`). Where the
+solve is not diagonal in Fourier space (meshes, Dirichlet boundaries, spatially varying or
+anisotropic diffusion) the same steps solve it by conjugate gradients
+(:mod:`morphogen.imex_cg`); :func:`make_imex_advance` takes either solver.
 """
 
 from __future__ import annotations
@@ -42,13 +44,13 @@ def require_spectral_grid(domain: Any, species: tuple[str, ...], scheme: str) ->
     """Raise a one-line error unless the domain is a grid with periodic / no-flux species."""
     if not hasattr(domain, "laplacian") or not hasattr(domain, "symbol"):
         raise MorphogenError(
-            f"scheme {scheme} solves diffusion in Fourier space on grids; use euler or rk4 "
-            "on meshes")
+            f"scheme {scheme} solves diffusion in Fourier space on grids; use imex, euler or "
+            "rk4 on meshes")
     for bc in domain.boundaries(species):
         if bc.kind not in ("periodic", "neumann"):
             raise MorphogenError(
-                f"scheme {scheme} supports periodic and neumann boundaries; use euler or rk4 "
-                f"for {bc.kind}")
+                f"scheme {scheme} supports periodic and neumann boundaries; use imex, euler or "
+                f"rk4 for {bc.kind}")
 
 
 class SpectralDiffusion:
@@ -60,10 +62,12 @@ class SpectralDiffusion:
         self.mirror = [bc.kind == "neumann" for bc in self.bcs]
         self.symbols = {m: _symbol(domain, m) for m in set(self.mirror)}
 
-    def solve(self, u: Array, coeffs: tuple[Any, ...], c: Array) -> Array:
-        """Solve ``(I - c D_i L) v_i = u_i`` for every species ``i``; ``u`` is ``(S, *shape)``."""
+    def solve(self, u: Array, coeffs: tuple[Any, ...], c: Array, x0: Array | None = None
+              ) -> Array:
+        """Solve ``(I - c D_i L) v_i = u_i`` for every species ``i``; ``u`` is ``(S, *shape)``
+        (``x0``, a first guess for iterative solvers, is not needed: the solve is exact)."""
         self.check(coeffs, "imex")
-        return jnp.stack([self._solve_one(u[i], d, c, self.mirror[i])
+        return jnp.stack([self.solve_one(u[i], d, c, self.mirror[i])
                           for i, d in enumerate(coeffs)])
 
     def forward(self, f: Array, mirror: bool) -> Array:
@@ -81,7 +85,8 @@ class SpectralDiffusion:
             v = v[tuple(slice(0, n) for n in self.shape)]
         return v.astype(dtype)
 
-    def _solve_one(self, f: Array, d: Array, c: Array, mirror: bool) -> Array:
+    def solve_one(self, f: Array, d: Array, c: Array, mirror: bool) -> Array:
+        """``(I - c d L)^{-1} f`` for one field, ``mirror`` for a no-flux species."""
         lam = jnp.asarray(self.symbols[mirror], f.dtype)
         return self.inverse(self.forward(f, mirror) / (1.0 - c * d * lam), mirror, f.dtype)
 
@@ -90,8 +95,8 @@ class SpectralDiffusion:
         for d in coeffs:
             if isinstance(d, Tensor) or jnp.ndim(d) > 0:
                 raise MorphogenError(
-                    f"scheme {scheme} needs constant isotropic diffusion; use euler or rk4 for "
-                    "spatially varying or anisotropic coefficients")
+                    f"scheme {scheme} needs constant isotropic diffusion; use imex, euler or rk4 "
+                    "for spatially varying or anisotropic coefficients")
 
 
 def _symbol(domain: Any, mirror: bool) -> np.ndarray:
@@ -106,11 +111,14 @@ def _symbol(domain: Any, mirror: bool) -> np.ndarray:
 
 
 def make_imex_advance(
-    model: Model, domain: Any, scheme: str
+    model: Model, domain: Any, scheme: str, solver: Any
 ) -> Callable[[Array, Params, Array, Array], Array]:
-    """The deterministic update ``advance(u, p, t, dt) -> u`` of ``imex1`` or ``imex``."""
-    require_spectral_grid(domain, model.species, scheme)
-    solver = SpectralDiffusion(domain, model.species)
+    """The deterministic update ``advance(u, p, t, dt) -> u`` of ``imex1`` or ``imex``.
+
+    ``solver.solve(b, coeffs, c, x0)`` returns ``(I - c L_D)^{-1} b`` per species (``x0``: a
+    first guess, the current state): a :class:`SpectralDiffusion` or a
+    :class:`morphogen.imex_cg.ImplicitDiffusion`.
+    """
     bcs = domain.boundaries(model.species)
     coords = {k: jnp.asarray(v) for k, v in domain.coords.items()}
 
@@ -119,13 +127,13 @@ def make_imex_advance(
         d = tuple(model.diffusion(p, c))
         r0 = model.reaction(u, p, c)
         if scheme == "imex1":
-            return solver.solve(u + dt * r0, d, dt)
-        stage = solver.solve(u + _G * dt * r0, d, _G * dt)
+            return solver.solve(u + dt * r0, d, dt, u)
+        stage = solver.solve(u + _G * dt * r0, d, _G * dt, u)
         c2 = {**coords, "t": t + _G * dt}
         r1 = model.reaction(stage, p, c2)
         rhs = u + dt * (_D * r0 + (1.0 - _D) * r1)
         rhs = rhs + (1.0 - _G) * dt * domain.diffuse(stage, d, bcs)
-        return solver.solve(rhs, d, _G * dt)
+        return solver.solve(rhs, d, _G * dt, stage)
 
     return advance
 

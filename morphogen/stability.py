@@ -161,7 +161,8 @@ def linear_limit(
     sigma = np.linspace(0.0, domain.spectral_radius(), _SIGMAS)
     implicit = scheme in IMPLICIT_DIFFUSION
     if implicit:
-        require_spectral_grid(domain, model.species, scheme)
+        if scheme == "etdrk4":
+            require_spectral_grid(domain, model.species, scheme)
         sigma, scheme = np.zeros(1), "euler"
     diag = d[:, :, None] * np.eye(d.shape[1])[None]
     mats = jac[:, None] - sigma[None, :, None, None] * diag[:, None]

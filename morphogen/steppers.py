@@ -6,8 +6,9 @@ deterministic right-hand side is
 .. math:: f(u) = R(u, p, x, t) + \\nabla\\cdot(D\\nabla u)
 
 advanced by explicit Euler (the scheme of every seed), classic RK4, or an implicit-explicit
-scheme (``imex1``, ``imex``: diffusion solved exactly in Fourier space, :mod:`morphogen.imex`)
-or the exponential integrator ``etdrk4`` (:mod:`morphogen.etd`).
+scheme (``imex1``, ``imex``: diffusion solved exactly in Fourier space, :mod:`morphogen.imex`,
+or by conjugate gradients on meshes and for varying, anisotropic or Dirichlet diffusion,
+:mod:`morphogen.imex_cg`) or the exponential integrator ``etdrk4`` (:mod:`morphogen.etd`).
 Noise is added after the deterministic update, Euler-Maruyama style, whatever the scheme:
 
 - additive: ``u += sigma * sqrt(dt) * xi``
@@ -29,6 +30,7 @@ import numpy as np
 from morphogen.errors import MorphogenError, UnstableTimeStepError
 from morphogen.etd import make_etd_advance
 from morphogen.imex import IMEX_SCHEMES, make_imex_advance
+from morphogen.imex_cg import ImplicitDiffusion
 from morphogen.models.model import Array, Model, Params
 from morphogen.stability import linear_limit
 
@@ -110,7 +112,8 @@ def make_step(
     if scheme not in SCHEMES:
         raise MorphogenError(f"unknown scheme {scheme!r}; use one of {', '.join(SCHEMES)}")
     if scheme in IMEX_SCHEMES:
-        advance = make_imex_advance(model, domain, scheme)
+        solver = ImplicitDiffusion(domain, model.species, held_mask(model, domain))
+        advance = make_imex_advance(model, domain, scheme, solver)
     elif scheme == "etdrk4":
         advance = make_etd_advance(model, domain)
     else:

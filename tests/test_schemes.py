@@ -119,17 +119,19 @@ def test_imex_limit_is_set_by_the_reaction():
 
 
 def test_schemes_that_cannot_carry_a_term_say_so():
+    """ETDRK4 needs the Fourier solve; IMEX takes these cases by conjugate gradients
+    (tests/test_imex_cg.py)."""
     model = pure_diffusion()
-    with pytest.raises(MorphogenError, match="periodic and neumann"):
-        make_step(model, Grid((8, 8), boundary="dirichlet"), scheme="imex")
+    with pytest.raises(MorphogenError, match="periodic and neumann boundaries; use imex"):
+        make_step(model, Grid((8, 8), boundary="dirichlet"), scheme="etdrk4")
     field = Model(
         name="field", species=("u",), params={},
         reaction=lambda u, p, c: jnp.zeros_like(u),
         diffusion=lambda p, c: (0.5 + c["x"],), ground=lambda p: (0.0,),
     )
-    with pytest.raises(MorphogenError, match="needs constant isotropic diffusion"):
+    with pytest.raises(MorphogenError, match="needs constant isotropic diffusion; use imex"):
         simulate(field, Grid((8, 8)), np.zeros((1, 8, 8)), {}, steps=1, dt=0.1,
-                 scheme="imex1", unsafe=True)
+                 scheme="etdrk4", unsafe=True)
 
 
 @pytest.mark.parametrize("boundary", ["periodic", "neumann"])
