@@ -19,8 +19,8 @@ from fastapi.responses import JSONResponse, Response
 from morphogen import guard
 from morphogen.errors import MorphogenError
 from morphogen.web import export
-from morphogen.web.image_input import decode_png, image_field
-from morphogen.web.limits import JSONBody, OptionalBody, integer, number, run_limited
+from morphogen.web.image_input import RESAMPLING, decode_png, image_field
+from morphogen.web.limits import JSONBody, OptionalBody, choice, integer, number, run_limited
 from morphogen.web.live import Frame, LiveSim
 from morphogen.web.recording import FORMATS
 
@@ -160,6 +160,35 @@ async def image(request: Request, sid: str, body: JSONBody):
     field = image_field(grey, tuple(sim.engine.grid.shape), lo, hi)
     left = sim.load_species(body.get("species"), field)
     return {"ok": True, "undo": left}
+
+
+@router.post("/{sid}/map")
+async def parameter_map(request: Request, sid: str, body: JSONBody):
+    """A parameter as a spatial field from an image: ``{param, png: base64, lo, hi, resample}``
+    (grey level ``g`` -> ``lo + (hi - lo) g``: ``lo`` at black, ``hi`` at white; ``resample``
+    ``bilinear`` (default) or ``nearest``, see :mod:`morphogen.web.image_input`). Returns the
+    notices (``dt`` lowered) and the settings, whose ``maps`` name the mapped parameters."""
+    sim = _sim(request, sid)
+    name = body.get("param")
+    if not isinstance(name, str) or not name:
+        raise MorphogenError("param must name the parameter the image maps")
+    grey = decode_png(body.get("png"))
+    lo = number(body.get("lo"), "the map's low value", -1e6, 1e6)
+    hi = number(body.get("hi"), "the map's high value", -1e6, 1e6)
+    if not hi > lo:
+        raise MorphogenError(f"the map's high value (white) must be above its low value "
+                             f"(black); got low {lo:g}, high {hi:g}")
+    resample = choice(body.get("resample", "bilinear"), "resampling", RESAMPLING)
+    notices = await run_limited(lambda: sim.set_map(name, grey, lo, hi, resample),
+                                request.app.state.limits.request_timeout_s, "the parameter map")
+    return {"notices": notices, **sim.describe()}
+
+
+@router.delete("/{sid}/map/{name}")
+async def clear_map(request: Request, sid: str, name: str):
+    """The parameter is a number again (its slider value)."""
+    sim = _sim(request, sid)
+    return {"notices": sim.set_map(name, None), **sim.describe()}
 
 
 @router.post("/{sid}/undo")

@@ -8,6 +8,7 @@ from typing import Any
 import imageio.v3 as iio
 import numpy as np
 
+from morphogen.errors import MorphogenError
 from morphogen.render.colour import colourise
 from morphogen.render.images import upscale
 
@@ -24,11 +25,15 @@ def run_config(sim: Any, steps: int | None = None) -> bytes:
     ``steps`` defaults to the steps taken so far (at least 1000); running the file with
     ``morphogen simulate --config`` starts from the same initial condition and seed, so it
     reproduces what the page showed, strokes painted by hand aside. Pasted equations travel
-    inside the file as ``model_source``.
+    inside the file as ``model_source``. A parameter map (an uploaded image) has no place in a
+    run file: the file is refused while one is set.
     """
     from morphogen.runfile import FORMAT
 
     d = sim.describe()
+    if d.get("maps"):
+        raise MorphogenError(f"parameter {', '.join(d['maps'])} is a map from an image, which a "
+                             "run file cannot hold; clear the map to save a run file")
     n = int(steps) if steps is not None else max(1000, int(d["steps"]))
     config: dict[str, Any] = {
         "model": d["model"],

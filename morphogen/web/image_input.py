@@ -1,8 +1,16 @@
-"""An uploaded image as a starting state: a PNG's grey levels mapped onto one species.
+"""An uploaded image on the grid: a PNG's grey levels as one species' starting state or as a
+parameter's spatial field.
 
-Each grid cell takes the grey level ``g`` in ``[0, 1]`` of the image pixel it falls on (nearest
-neighbour, the image stretched over the whole grid, row 0 at the top as in the picture) and the
-species gets ``lo + (hi - lo) g`` there, like a prepattern loaded from a file in Ready.
+The image is stretched over the whole grid, row 0 at the top as in the picture, and each cell
+takes a grey level ``g`` in ``[0, 1]`` (the mean of R, G, B for a colour image), which becomes
+``lo + (hi - lo) g`` there: black is ``lo``, white ``hi``, like a prepattern loaded from a file
+in Ready. Cell ``(i, j)`` of an ``(h, w)`` grid has its centre at image coordinates
+``(r, c) = ((i + 1/2) H / h - 1/2, (j + 1/2) W / w - 1/2)`` (pixel centres at whole numbers):
+
+- ``nearest``: the pixel that centre falls on;
+- ``bilinear``: ``g`` interpolated linearly between the four pixel centres around ``(r, c)``
+  (:func:`scipy.ndimage.map_coordinates`, order 1), the edge pixels held beyond the image, so a
+  small image gives a smooth field instead of blocks.
 """
 
 from __future__ import annotations
@@ -44,10 +52,27 @@ def decode_png(text: object) -> np.ndarray:
     return img
 
 
-def image_field(grey: np.ndarray, shape: tuple[int, int], lo: float, hi: float) -> np.ndarray:
-    """Nearest-neighbour resampling of ``grey`` ``(H, W)`` onto an ``(h, w)`` grid, mapped to
+RESAMPLING = ("nearest", "bilinear")
+"""How an image is resampled onto the grid (see the module docstring)."""
+
+
+def image_field(grey: np.ndarray, shape: tuple[int, int], lo: float, hi: float,
+                resample: str = "nearest") -> np.ndarray:
+    """``grey`` ``(H, W)`` resampled onto an ``(h, w)`` grid (:data:`RESAMPLING`) and mapped to
     ``lo + (hi - lo) g``; returns ``(h, w)`` float32."""
+    if resample not in RESAMPLING:
+        raise MorphogenError(f"resampling must be one of {', '.join(RESAMPLING)}, "
+                             f"got {resample!r}")
     h, w = shape
-    rows = np.minimum((np.arange(h) + 0.5) * grey.shape[0] / h, grey.shape[0] - 1).astype(int)
-    cols = np.minimum((np.arange(w) + 0.5) * grey.shape[1] / w, grey.shape[1] - 1).astype(int)
-    return (lo + (hi - lo) * grey[rows][:, cols]).astype(np.float32)
+    if resample == "bilinear":
+        from scipy.ndimage import map_coordinates
+
+        r = (np.arange(h) + 0.5) * grey.shape[0] / h - 0.5
+        c = (np.arange(w) + 0.5) * grey.shape[1] / w - 0.5
+        rr, cc = np.meshgrid(r, c, indexing="ij")
+        g = map_coordinates(np.asarray(grey, np.float64), [rr, cc], order=1, mode="nearest")
+    else:
+        rows = np.minimum((np.arange(h) + 0.5) * grey.shape[0] / h, grey.shape[0] - 1)
+        cols = np.minimum((np.arange(w) + 0.5) * grey.shape[1] / w, grey.shape[1] - 1)
+        g = grey[rows.astype(int)][:, cols.astype(int)]
+    return (lo + (hi - lo) * g).astype(np.float32)

@@ -34,6 +34,7 @@ from morphogen.simulate import OVERFLOW, integrate
 from morphogen.steppers import make_step, max_stable_dt
 from morphogen.web.brush import brush_values, painter
 from morphogen.web.catalog import check_params, resolve_model
+from morphogen.web.image_input import image_field
 from morphogen.web.limits import Limits, choice, integer, number
 from morphogen.web.recording import Recorder
 
@@ -168,6 +169,7 @@ class LiveSim:
         self.fixed: tuple[float, float] | None = None
         self.undo_stack: list[Any] = []
         self.recorder = Recorder()
+        self.maps: dict[str, tuple[np.ndarray, dict[str, Any]]] = {}
 
     # -- configuration --------------------------------------------------------------------
     def configure(self, spec: Mapping[str, Any], size: int = 256, boundary: str = "periodic",
@@ -196,7 +198,7 @@ class LiveSim:
             self.engine, self.size, self.height, self.boundary = eng, size, height, boundary
             self.scheme = scheme
             self.fixed = None
-            self.values = values
+            self.values, self.maps = values, {}
             self.show = model.species.index(model.display_species)
             self.dt = self.chosen_dt = self._default_dt()
             self.steps_per_frame = _default_steps(model, self.dt)
@@ -218,6 +220,25 @@ class LiveSim:
             dt_max = self._dt_max()
             self.dt = self.chosen_dt = number(dt, "dt", 1e-6, dt_max)
             return []
+
+    def set_map(self, name: str, grey: np.ndarray | None, lo: float = 0.0, hi: float = 1.0,
+                resample: str = "bilinear") -> list[str]:
+        """Make parameter ``name`` the field ``lo + (hi - lo) g`` of an image's grey levels
+        ``grey`` resampled onto the grid (:func:`morphogen.web.image_input.image_field`), or its
+        number again with ``None``; returns notices as :meth:`set_params`. A field the stepper
+        cannot take (``etdrk4`` and a diffusion map) is refused by tracing one step."""
+        with self.lock:
+            self._touch()
+            check_params({name: lo}, self.engine.model)  # a known parameter
+            maps = {k: v for k, v in self.maps.items() if k != name}
+            if grey is not None:
+                field = image_field(grey, tuple(self.engine.grid.shape), lo, hi, resample)
+                maps[name] = (field, {"lo": lo, "hi": hi, "resample": resample})
+                p = {**self.values, **{k: f for k, (f, _) in maps.items()}}
+                jax.eval_shape(self.engine.step, self.u, p, self.t, jnp.float32(self.dt),
+                               self.key)
+            self.maps = maps
+            return self._fit_dt()
 
     def set_view(self, *, species: str | None = None, steps_per_frame: Any = None,
                  cmap: str | None = None, value_range: Any = None) -> None:
@@ -319,7 +340,7 @@ class LiveSim:
             if self.error is None:
                 start = time.perf_counter()
                 run = self.engine.program(n)
-                p = {k: jnp.asarray(v, jnp.float32) for k, v in self.values.items()}
+                p = {k: jnp.asarray(v, jnp.float32) for k, v in self._params().items()}
                 lo, hi = self._scale()
                 u, t, key, img, fmin, fmax, ok = run(
                     self.u, p, self.t, jnp.float32(self.dt), self.key, self.show, lo, hi
@@ -374,6 +395,7 @@ class LiveSim:
             "species": list(model.species),
             "show": model.species[self.show],
             "params": dict(self.values),
+            "maps": {k: info for k, (_, info) in self.maps.items()},
             "dt": self.dt,
             "dt_max": self._dt_max(),
             "size": self.size,
@@ -429,8 +451,12 @@ class LiveSim:
         self.fixed = (lo, hi)
         self.lo, self.hi = lo, hi
 
+    def _params(self) -> dict[str, Any]:
+        """The values a step uses: the numbers, with parameter maps in place of theirs."""
+        return {**self.values, **{k: f for k, (f, _) in self.maps.items()}}
+
     def _dt_max(self) -> float:
-        return max_stable_dt(self.engine.model, self.engine.grid, self.values, self.scheme)
+        return max_stable_dt(self.engine.model, self.engine.grid, self._params(), self.scheme)
 
     def _default_dt(self) -> float:
         """The model's suggested ``dt``, lowered below the explicit stability limit if needed."""

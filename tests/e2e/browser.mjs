@@ -153,7 +153,7 @@ const SCENARIOS = {
     await page.click('#ex-run');
     await waitFrames(page, 20);
     await page.screenshot({ path: join(out, 'paint.png') });
-    return { flat, painted, untouched, brush, ...tools };
+    return { flat, painted, untouched, brush, ...tools, map: await features.parameterMap(page, out) };
   },
 
   async download(page) {

@@ -1,4 +1,4 @@
-// Steps of browser.mjs's scenarios for the Atlas's pattern families.
+// Steps of browser.mjs's scenarios for the Atlas's pattern families and Explore's parameter maps.
 
 import { join } from 'node:path';
 
@@ -20,4 +20,31 @@ export async function atlasFamilies(page, out) {
     return { shown: !link.hidden, text: await (await fetch(link.href)).text() };
   });
   return { families: res.families, legend, hover, csv };
+}
+
+// Explore: F from a left-to-right grey ramp (0.02 at black, 0.06 at white), its slider behind a
+// "map" badge and the run-file link hidden; the badge clears it again
+export async function parameterMap(page, out) {
+  await page.selectOption('#ex-map-param', 'F');
+  await page.fill('#ex-map-lo', '0.02');
+  await page.fill('#ex-map-hi', '0.06');
+  await page.setInputFiles('#ex-map-image', join(out, 'ramp.png'));
+  await page.waitForSelector('.map-badge[data-map="F"]:not([hidden])', { timeout: 30000 });
+  const shown = () => x(page, () => {
+    const range = document.querySelector('input[data-param="F"]');
+    const badge = document.querySelector('.map-badge[data-map="F"]');
+    return { badge: badge && !badge.hidden ? badge.textContent : null, title: badge?.title ?? '',
+      rangeDisabled: range.disabled, numHidden: range.nextElementSibling.hidden,
+      runHidden: document.getElementById('ex-save-run').hidden,
+      note: !document.getElementById('ex-map-norun').hidden, maps: window.morphogenExplore.state.maps };
+  });
+  const mapped = await shown();
+  if (!await x(page, () => window.morphogenExplore.running)) await page.click('#ex-run');
+  const f0 = await x(page, () => window.morphogenExplore.frames);
+  await page.waitForFunction((s) => window.morphogenExplore.frames >= s + 40, f0, { timeout: 60000 });
+  await x(page, () => document.getElementById('ex-params').closest('fieldset').scrollIntoView()); // the badge in view
+  await page.screenshot({ path: join(out, 'explore-map.png') });
+  await page.click('.map-badge[data-map="F"]');
+  await page.waitForFunction(() => Object.keys(window.morphogenExplore.state.maps).length === 0);
+  return { mapped, cleared: await shown() };
 }

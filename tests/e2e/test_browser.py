@@ -123,6 +123,8 @@ def test_moving_the_feed_slider_changes_the_picture(server):
 
 
 def test_painting_a_perturbation(server):
+    ramp = np.tile(np.linspace(0, 255, 64).astype(np.uint8), (64, 1))  # black left, white right
+    iio.imwrite(OUT / "ramp.png", ramp)
     data = scenario(server, "paint")
     flat, painted = data["flat"], data["painted"]
     assert flat[0] == flat[1], "the uniform start should look uniform"
@@ -145,6 +147,14 @@ def test_painting_a_perturbation(server):
     assert brush["cursor"].startswith('url("data:image/png') and brush["species"] == ["", "u", "v"]
     assert abs(brush["ring"] - 2 * 0.03 * brush["width"]) <= 1  # the default radius 0.03
     assert brush["imageUndo"] == "Undo stroke (1)"  # an uploaded PNG became v's state
+    # F from the ramp: a map badge instead of the number, the slider and run file unavailable
+    mapped, cleared = data["map"]["mapped"], data["map"]["cleared"]
+    assert mapped["maps"] == {"F": {"lo": 0.02, "hi": 0.06, "resample": "bilinear"}}
+    assert mapped["badge"] == "map ×" and "0.02 at black to 0.06 at white" in mapped["title"]
+    assert mapped["rangeDisabled"] and mapped["numHidden"] and mapped["runHidden"]
+    assert mapped["note"]
+    assert cleared["maps"] == {} and cleared["badge"] is None and not cleared["rangeDisabled"]
+    assert not cleared["numHidden"] and not cleared["runHidden"] and not cleared["note"]
 
 
 def test_one_evolve_generation_with_two_favourites(server):

@@ -3,6 +3,7 @@
 
 import { api, colourTable, el, fillSelect, fmt, showError } from './api.js';
 import { ExploreTools } from './explore_tools.js';
+import { ParamMaps } from './explore_maps.js';
 import { currentQuery, decodeSettings, encodeState, settingsFromRunFile } from './urlstate.js';
 
 const HEADER_BYTES = 28; // u16 w, u16 h, u32 frame, f32 t, u32 steps, f32 lo, f32 hi, f32 ms
@@ -48,6 +49,7 @@ export class Explore {
     this.visible = true;
     this.lastQuery = null; // the address's query this page last wrote or loaded
     this.tools = new ExploreTools(this);
+    this.maps = new ParamMaps(this); // parameters as fields from images
     // what the end-to-end tests read
     window.morphogenExplore = this;
   }
@@ -66,6 +68,7 @@ export class Explore {
     this.ctx = this.canvas.getContext('2d');
     this.bindControls();
     this.tools.bind(); // brush, readout, colour bar, recording
+    this.maps.bind();
     const query = currentQuery();
     this.lastQuery = query;
     const fromUrl = decodeSettings(query);
@@ -186,6 +189,7 @@ export class Explore {
     this.setDt(state.dt, state.dt_max);
     this.lut = await colourTable(state.cmap);
     this.tools.onState(state);
+    this.maps.onState(state);
     this.updateLinks();
     this.writeUrl();
     if (state.error) showError(this.$('ex-error'), state.error);
