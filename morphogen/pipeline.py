@@ -50,7 +50,8 @@ a parameter its values per vertex (as in PLY files); the final state's species b
 (renamed with ``outputs = { v = "v1" }``). Each stage writes ``DIR/NN-NAME/`` (``out.ply``,
 ``out.png``, ``fields.npz``, ``stage.json``); ``DIR/final.ply`` holds every field and
 ``DIR/pipeline.json`` a record. With ``resume``, stages whose ``stage.json`` matches and whose
-``fields.npz`` exists are not recomputed.
+``fields.npz`` exists are not recomputed. A front end follows a run with ``report(k, n, share)``
+(stage ``k`` of ``n``, the share of it done) and stops it by raising from that call.
 """
 
 from __future__ import annotations
@@ -58,7 +59,7 @@ from __future__ import annotations
 import json
 import time
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -166,10 +167,15 @@ def run_pipeline(
     resume: bool = False,
     progress: bool = False,
     pictures: bool = True,
+    report: Callable[[int, int, float], None] | None = None,
 ) -> Mesh:
     """Run every stage in order; returns the mesh with all fields. Outputs are described in the
     module docstring; with ``pictures=False`` no stage renders its ``out.png`` or writes its
-    ``out.ply`` (for timing and tests), ``final.ply`` is still written."""
+    ``out.ply`` (for timing and tests), ``final.ply`` is still written.
+
+    ``report(k, n, share)`` is called as stage ``k`` of ``n`` starts (``share`` 0) and ends
+    (1), and in a simulation stage after every compiled chunk of steps (the share of its steps
+    done); an exception it raises stops the pipeline there (a server's cancel button)."""
     from morphogen.mesh_io import save_ply
 
     spec = load_pipeline(pipeline) if isinstance(pipeline, str | Path) else pipeline
@@ -178,7 +184,11 @@ def run_pipeline(
     record: dict[str, Any] = {"mesh": {"vertices": mesh.n_vertices, "faces": mesh.n_faces,
                                        **{k: v for k, v in spec["mesh"].items()}}, "stages": []}
     colours = None
+    count = len(spec["stage"])
     for i, stage in enumerate(spec["stage"], 1):
+        share = None if report is None else (lambda f, k=i: report(k, count, f))
+        if share is not None:
+            share(0.0)
         name = stage.get("name", stage["kind"])
         stage_dir = ensure_writable_dir(out_dir / f"{i:02d}-{_slug(name)}")
         started = time.perf_counter()
@@ -188,13 +198,15 @@ def run_pipeline(
             fields, info["resumed"] = cached, True
         else:
             fields, extra, colours = _run_stage(stage, mesh, spec, stage_dir, progress,
-                                                pictures)
+                                                pictures, share)
             info.update(extra)
             write_npz(stage_dir / "fields.npz", fields)
             write_json(stage_dir / "stage.json", stage)
         mesh = mesh.with_fields(**fields)
         info.update(fields=sorted(fields), seconds=round(time.perf_counter() - started, 3))
         record["stages"].append(info)
+        if share is not None:
+            share(1.0)
     save_ply(out_dir / "final.ply", mesh, colours=colours)
     write_json(out_dir / "pipeline.json", record)
     return mesh
@@ -216,8 +228,10 @@ def _cached(stage_dir: Path, stage: Mapping[str, Any]) -> dict[str, np.ndarray] 
         return None
 
 
-def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pictures: bool):
-    """Returns ``(new fields, record entries, vertex colours or None)``."""
+def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pictures: bool,
+               share: Callable[[float], None] | None = None):
+    """Returns ``(new fields, record entries, vertex colours or None)``; ``share(f)`` after
+    each chunk of a simulation (the share of its steps done)."""
     from morphogen.flowers import positional_information, seed_field
 
     kind = stage["kind"]
@@ -252,7 +266,7 @@ def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, picture
         return {stage.get("field", "points"): field}, {}, None
     if kind == "veins":
         return _veins_stage(stage, mesh, spec, stage_dir, view, pictures)
-    return _simulate_stage(stage, mesh, spec, stage_dir, progress, pictures)
+    return _simulate_stage(stage, mesh, spec, stage_dir, progress, pictures, share)
 
 
 def grow_veins(stage: Mapping[str, Any], mesh: Mesh, seed: int = 0):
@@ -306,7 +320,8 @@ def _veins_stage(stage, mesh: Mesh, spec, stage_dir: Path, view: Any, pictures: 
                     "max_order": int(graph.order.max())}, colours
 
 
-def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pictures: bool):
+def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pictures: bool,
+                    share: Callable[[float], None] | None = None):
     """One simulation: model, parameters and initial values from fields, then outputs."""
     from morphogen.initial import make_initial
     from morphogen.mesh_io import apply_fields, write_mesh_outputs
@@ -345,10 +360,17 @@ def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pi
         steps = int(stage["steps"])
     else:
         steps = int(round(float(stage.get("time", model.t_end)) / dt))
+    done = 0
+
+    def chunk(n: int) -> None:
+        nonlocal done
+        done += n
+        share(done / max(steps, 1))
+
     sol = simulate(model, domain, u0, params, steps=steps, dt=dt, seed=seed, progress=progress,
                    unsafe=bool(stage.get("unsafe", False)),
                    scheme=str(stage.get("scheme", "euler")), rtol=stage.get("rtol"),
-                   atol=stage.get("atol"))
+                   atol=stage.get("atol"), on_chunk=None if share is None else chunk)
     write_npz(stage_dir / "state.npz", {s: sol.state[i] for i, s in enumerate(model.species)})
     show = stage.get("show", model.display_species)
     if pictures:

@@ -159,6 +159,7 @@ def simulate(
     unsafe: bool = False,
     rtol: float | None = None,
     atol: float | None = None,
+    on_chunk: Callable[[int], None] | None = None,
 ) -> Solution:
     """Simulate one state ``u0`` (shape ``(S, *spatial)``) for ``steps`` steps of ``dt``.
 
@@ -174,6 +175,8 @@ def simulate(
             (:func:`morphogen.autoscheme.choose_scheme`) or ``adaptive``
             (:mod:`morphogen.adaptive`: error control by ``rtol``/``atol``, ``dt`` is the first
             step and ``steps * dt`` the end time).
+        on_chunk: called with ``n`` after each compiled chunk of ``n`` steps (fixed-step
+            schemes); an exception it raises stops the run there (a server's cancel button).
 
     Raises:
         UnstableTimeStepError: ``dt`` above the stability limit (unless ``unsafe``).
@@ -184,7 +187,7 @@ def simulate(
     return _drive(
         model, domain, u0, params, batched=False, steps=steps, dt=dt, scheme=scheme,
         noise=noise, clamp=clamp, seed=seed, every=every, max_snapshots=max_snapshots,
-        progress=progress, unsafe=unsafe, rtol=rtol, atol=atol,
+        progress=progress, unsafe=unsafe, rtol=rtol, atol=atol, on_chunk=on_chunk,
     )
 
 

@@ -27,6 +27,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-warm-up", dest="warm_up", action="store_false",
                    help="do not compile the library models' live views in the background at "
                    "start (they are compiled on first use instead)")
+    p.add_argument("--examples", default=None, metavar="DIR",
+                   help="where the Mesh page's case studies are (DIR/flowers/*.toml; default: "
+                   "the repository's examples/)")
     p.set_defaults(func=run)
 
 
@@ -42,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
         hosts.append(args.host)
         print(f"warning: serving on {args.host}; anyone who can reach it can use the app")
     app = create_app(archive=args.archive, allowed_hosts=hosts,
-                     warm_up=args.warm_up)
+                     warm_up=args.warm_up, examples=args.examples)
     family = socket.AF_INET6 if ":" in args.host else socket.AF_INET
     sock = socket.socket(family, socket.SOCK_STREAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)

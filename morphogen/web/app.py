@@ -22,9 +22,11 @@ from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 
+from morphogen.cli.gallery_cmd import EXAMPLES
 from morphogen.errors import MorphogenError
 from morphogen.web import (
     atlas_routes,
+    case_studies,
     evolve_routes,
     explore,
     info,
@@ -54,6 +56,7 @@ def create_app(
     archive: str | Path | None = None,
     allowed_hosts: Sequence[str] = LOCAL_HOSTS,
     warm_up: bool = False,
+    examples: str | Path | None = None,
 ) -> FastAPI:
     """Build the app.
 
@@ -65,6 +68,8 @@ def create_app(
             rebinding); add the public name when serving beyond 127.0.0.1.
         warm_up: compile the library models' live frame programs in a background thread at
             start (:mod:`morphogen.web.warmup`), so a model switch need not wait for them.
+        examples: the folder whose ``flowers/*.toml`` the Mesh page offers as case studies
+            (:mod:`morphogen.web.case_studies`; the repository's ``examples/`` when ``None``).
     """
     @asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -84,6 +89,7 @@ def create_app(
     app.state.jobs = JobStore(lim)
     app.state.archive = Path(archive) if archive is not None else None
     app.state.evolve = EvolveRuns(lim.session_idle_s)
+    app.state.examples = Path(examples) if examples is not None else EXAMPLES
     app.add_middleware(TrustedHostMiddleware, allowed_hosts=list(allowed_hosts))
 
     @app.middleware("http")
@@ -110,7 +116,8 @@ def create_app(
     async def bad_input(request: Request, exc: MorphogenError):
         return JSONResponse({"error": str(exc)}, status_code=400)
 
-    for module in (info, explore, atlas_routes, jobs, evolve_routes, runs_routes, mesh_routes):
+    for module in (info, explore, atlas_routes, jobs, evolve_routes, runs_routes, case_studies,
+                   mesh_routes):
         app.include_router(module.router)
 
     @app.get("/", include_in_schema=False)

@@ -85,14 +85,15 @@ class JobStore:
         self._lock = threading.Lock()
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="morphogen-job")
 
-    def submit(self, kind: str, work: Work) -> Job:
-        """Queue ``work``; returns its :class:`Job` at once."""
+    def submit(self, kind: str, work: Work, timeout_s: float | None = None) -> Job:
+        """Queue ``work``; returns its :class:`Job` at once. It is stopped after ``timeout_s``
+        seconds of running (``limits.job_timeout_s`` when ``None``)."""
         job = Job(id=secrets.token_urlsafe(12), kind=kind)
         with self._lock:
             self._jobs[job.id] = job
             while len(self._jobs) > self.limits.max_jobs:
                 self._jobs.popitem(last=False)
-        self._pool.submit(self._run, job, work)
+        self._pool.submit(self._run, job, work, timeout_s or self.limits.job_timeout_s)
         return job
 
     def get(self, job_id: str) -> Job:
@@ -102,19 +103,19 @@ class JobStore:
             raise JobGone(f"unknown job {job_id!r} (finished jobs are kept for a while only)")
         return job
 
-    def _run(self, job: Job, work: Work) -> None:
+    def _run(self, job: Job, work: Work, timeout_s: float) -> None:
         if job.cancel.is_set():
             job.status = "cancelled"
             return
         job.status, job.started = "running", time.time()
-        deadline = time.monotonic() + self.limits.job_timeout_s
+        deadline = time.monotonic() + timeout_s
 
         def progress(fraction: float, message: str = "") -> None:
             if job.cancel.is_set():
                 raise JobStopped("cancelled")
             if time.monotonic() > deadline:
                 raise JobStopped(
-                    f"the job took longer than {self.limits.job_timeout_s:g} s and was "
+                    f"the job took longer than {timeout_s:g} s and was "
                     "stopped; use fewer steps, tiles or individuals"
                 )
             job.progress = min(max(float(fraction), 0.0), 1.0)

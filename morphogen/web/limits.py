@@ -43,6 +43,8 @@ class Limits:
         max_cell_steps: cells x steps x batch of one batched job (atlas or generation).
         request_timeout_s: wall-clock limit of one synchronous request (a frame, a reset).
         job_timeout_s: wall-clock limit of one background job (an atlas, a generation).
+        case_study_timeout_s: wall-clock limit of a flower case study (a shipped pipeline;
+            the largest take about 15 minutes on 2 cores).
         max_jobs: background jobs kept (finished ones are dropped oldest first).
     """
 
@@ -58,6 +60,7 @@ class Limits:
     max_cell_steps: float = 3.0e9
     request_timeout_s: float = 30.0
     job_timeout_s: float = 300.0
+    case_study_timeout_s: float = 3600.0
     max_jobs: int = 32
 
 

@@ -322,7 +322,7 @@ const SCENARIOS = {
     await page.screenshot({ path: join(out, 'mesh.png') });
     const res = await page.evaluate(() => window.morphogenMesh.mesh.f.length / 3);
     return { before, after, faces: res, tilt, fps, liveFrames, painted, loopError, plyHeader,
-      pngHead: String.fromCharCode(...pngHead) };
+      pngHead: String.fromCharCode(...pngHead), cases: await features.caseStudy(page, out) };
   },
 
   async tabs(page, context) {
@@ -499,6 +499,12 @@ SCENARIOS.evolvemap = async (page) => {
   detail.map_elites.elites[0].params.F, { timeout: 60000 });
   const params = await page.evaluate(() => window.morphogenExplore.state.params);
   return { tiles, elites: detail.map_elites.elites.length, first: detail.map_elites.elites[0].params, params };
+};
+
+// one case study for docs/web.md's picture (MORPHOGEN_E2E_CASE, a flower of the server's examples)
+SCENARIOS.casestudy = async (page) => {
+  await page.goto(`${base}#mesh`);
+  return features.caseStudy(page, out, process.env.MORPHOGEN_E2E_CASE || 'tiny', null);
 };
 
 SCENARIOS.meshsize = async (page) => {

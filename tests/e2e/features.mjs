@@ -1,4 +1,5 @@
-// Steps of browser.mjs's scenarios for the Atlas's pattern families and Explore's parameter maps.
+// Steps of browser.mjs's scenarios for the Atlas's pattern families, Explore's parameter maps
+// and the Mesh page's case studies.
 
 import { join } from 'node:path';
 
@@ -47,4 +48,42 @@ export async function parameterMap(page, out) {
   await page.click('.map-badge[data-map="F"]');
   await page.waitForFunction(() => Object.keys(window.morphogenExplore.state.maps).length === 0);
   return { mapped, cleared: await shown() };
+}
+
+// Mesh: run a case study from the menu, then start another and cancel it
+export async function caseStudy(page, out, name = 'tiny', cancel = 'endless') {
+  await page.waitForFunction(() => document.querySelectorAll('#me-case option').length > 0);
+  const menu = await x(page, () => [...document.querySelectorAll('#me-case option')].map((o) => [o.value, o.textContent]));
+  await page.selectOption('#me-case', name);
+  await page.click('#me-case-go');
+  const progress = [];
+  const message = () => x(page, () => window.morphogenMesh.ui.message.textContent);
+  const watch = setInterval(() => message().then((t) => progress.push(t)).catch(() => {}), 200);
+  await page.waitForFunction((n) => window.morphogenCases.result?.name === n
+    || !document.querySelector('#mesh-root .error').hidden, name, { timeout: 600000 });
+  clearInterval(watch);
+  const error = await page.textContent('#mesh-root .error');
+  if (error) throw new Error(`the case study showed an error: ${error}`);
+  await page.waitForTimeout(300);
+  await page.screenshot({ path: join(out, 'mesh-case.png') });
+  const shown = await x(page, () => {
+    const m = window.morphogenMesh;
+    const res = window.morphogenCases.result;
+    return { faces: m.mesh.f.length / 3, nFaces: res.n_faces, stage: res.stage, drawn: m.drawn,
+      still: !document.getElementById('me-still').hidden, message: m.ui.message.textContent };
+  });
+  const plyHeader = await x(page, async () => {
+    const text = new TextDecoder('latin1').decode(await (await fetch(document.getElementById('me-ply').href)).arrayBuffer());
+    return text.slice(0, text.indexOf('end_header'));
+  });
+  if (!cancel) return { menu, shown, plyHeader, progress };
+  await page.selectOption('#me-case', cancel);
+  await page.click('#me-case-go');
+  await page.waitForFunction(() => /stage \d+ of \d+/.test(window.morphogenMesh.ui.message.textContent)
+    && !document.getElementById('me-case-cancel').hidden, null, { timeout: 120000 });
+  const running = await message();
+  await page.click('#me-case-cancel');
+  await page.waitForSelector('#mesh-root .error:not([hidden])', { timeout: 60000 });
+  return { menu, shown, plyHeader, progress, running, cancelled: await page.textContent('#mesh-root .error'),
+    cancelHidden: await x(page, () => document.getElementById('me-case-cancel').hidden) };
 }

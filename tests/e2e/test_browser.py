@@ -28,6 +28,29 @@ LAMBDA = 0.9  # Skaggs eq. 3.9
 # against a server that warms its models up as `morphogen serve` does; the suite skips both.
 MEASURE = bool(os.environ.get("MORPHOGEN_E2E_MEASURE"))
 WARM_UP = [] if MEASURE else ["--no-warm-up"]
+# The Mesh page's case studies in the suite: a tiny petal pipeline (a fields stage and a short
+# simulation) and an endless one to cancel; MORPHOGEN_E2E_EXAMPLES serves another examples folder.
+CASE = """# A tiny petal (Ringham et al. 2021, §4.2, used only by the tests)
+view = "top"
+
+[mesh]
+shape = "petal"
+edge = 0.2
+
+[[stage]]
+name = "colour"
+kind = "fields"
+fields = { m = "s" }
+
+[[stage]]
+name = "grow"
+kind = "simulate"
+model = "gray-scott"
+steps = STEPS
+initial = { v = "where(s > 0.5, 0.25, 0)", u = "where(s > 0.5, 0.5, 1)" }
+show = "v"
+cmap = "magma"
+"""
 
 
 @pytest.fixture(scope="module")
@@ -45,12 +68,19 @@ def browser_ready():
 def server(browser_ready, tmp_path_factory):
     """``morphogen serve`` on 127.0.0.1 and a free port, with its own run archive."""
     archive = tmp_path_factory.mktemp("archive") / "index.sqlite"
+    examples = os.environ.get("MORPHOGEN_E2E_EXAMPLES")
+    if not examples:
+        examples = tmp_path_factory.mktemp("examples")
+        (examples / "flowers").mkdir()
+        (examples / "flowers" / "tiny.toml").write_text(CASE.replace("STEPS", "500"))
+        (examples / "flowers" / "endless.toml").write_text(
+            CASE.replace("STEPS", "1000000").replace("§4.2", "§4.9"))
     env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONUNBUFFERED": "1"}
     log_path = OUT / "server.log"
     with open(log_path, "w") as log:
         proc = subprocess.Popen(
             [sys.executable, "-m", "morphogen.cli.main", "serve", "--port", "0",
-             "--archive", str(archive), *WARM_UP],
+             "--archive", str(archive), "--examples", str(examples), *WARM_UP],
             stdout=log, stderr=subprocess.STDOUT, text=True, env=env, cwd=ROOT,
         )
     try:
@@ -261,6 +291,14 @@ def test_mesh_page_grows_and_rotates_a_flower(server):
     assert data["painted"] > 0 and not data["loopError"].strip()
     assert "property float F" in data["plyHeader"] and "property float u" in data["plyHeader"]
     assert data["pngHead"] == "PNG"
+    # a case study from the menu: the pipeline's last stage in the viewer, its PLY; and a cancel
+    cases = data["cases"]
+    assert cases["menu"] == [["tiny", "tiny (Ringham §4.2)"], ["endless", "endless (Ringham §4.9)"]]
+    shown = cases["shown"]
+    assert shown["faces"] == shown["nFaces"] > 0 and shown["stage"] == "02-grow" and shown["still"]
+    assert "property float v" in cases["plyHeader"]
+    assert any("stage 2 of 2 (grow)" in m for m in cases["progress"] + [cases["running"]])
+    assert cases["cancelled"].strip() == "case study cancelled" and cases["cancelHidden"]
     (OUT / "mesh-fps.txt").write_text(f"{data['fps']:.1f} frames/s, {data['faces']} faces\n")
 
 

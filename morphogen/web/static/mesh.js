@@ -2,9 +2,11 @@
 // (drag) and zoom (wheel); the server's still rendering is shown beside it. Ringham's modelling
 // loop: paint a prepattern on the flower (a species' start or a parameter's value at the painted
 // vertices), watch the pattern grow segment by segment, continue with new parameters from the
-// last state, and download the PLY and PNG the pipeline writes.
+// last state, and download the PLY and PNG the pipeline writes. A Case study menu runs the
+// shipped flower pipelines (mesh_cases.js).
 
 import { api, el, fillSelect, fmt, showError, waitForJob } from './api.js';
+import { CaseStudies } from './mesh_cases.js';
 
 const MAX_TILT = 1.2; // radians from face-on (69 degrees)
 
@@ -71,6 +73,8 @@ export class Mesh {
     u.clear.addEventListener('click', () => { this.painted.clear(); this.draw(); });
     await this.loadModel();
     this.bindView();
+    this.cases = new CaseStudies(this); // Ringham's flowers, run as the CLI's pipelines
+    await this.cases.init(this.root.querySelector('aside.controls'));
   }
 
   // the model's species and parameters: paint targets, and boxes for the parameter values
