@@ -35,10 +35,12 @@ diagonal (Jacobi). It stops when
           10^{-2}\\,\\mathrm{tol}\\,\\|M z\\|_2)
 
 with ``tol`` = :data:`CG_RTOL` (float32; :data:`CG_RTOL_X64` in float64), or after
-:data:`CG_MAXITER` iterations. On a species whose values are not held, ``M``-weighted mass is
-then restored exactly (the true solution has ``1^T M x = 1^T M b`` because ``1^T K_D = 0``):
-a uniform shift of the size of the residual. Species with constant scalar ``D`` and periodic or
-no-flux grid boundaries keep the exact Fourier solve of :mod:`morphogen.imex`.
+:data:`CG_MAXITER` iterations. Where the fluxes are conservative (meshes, grid tensors) and no
+value is held, the ``M``-weighted mass is then restored exactly (the true solution has
+``1^T M x = 1^T M b`` because ``1^T K_D = 0``): a uniform shift of the size of the residual.
+(``D(x) L_h`` on grids does not conserve mass, and is left as solved.) Species with constant
+scalar ``D`` and periodic or no-flux grid boundaries keep the exact Fourier solve of
+:mod:`morphogen.imex`.
 
 Gradients: every solve is a ``lax.custom_linear_solve``, so reverse mode solves the transposed
 system (from zero, tolerance relative to the cotangent) instead of differentiating the
