@@ -8,6 +8,22 @@ from pathlib import Path
 
 import pytest
 
+from morphogen import compile_cache
+
+
+@pytest.fixture(scope="session", autouse=True)
+def shared_compile_cache(tmp_path_factory):
+    """One compilation cache for the whole run, shared by the pytest-xdist workers and the
+    processes the tests start (they inherit the environment), never the user's own cache;
+    ``MORPHOGEN_COMPILE_CACHE`` set beforehand (a folder, or ``off``) is kept."""
+    if compile_cache.ENV in os.environ:
+        compile_cache.enable()
+        return
+    base = tmp_path_factory.getbasetemp()
+    root = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    os.environ[compile_cache.ENV] = str(root / "compile-cache")
+    compile_cache.enable()
+
 
 @pytest.fixture(scope="module")
 def local_ray():

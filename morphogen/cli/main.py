@@ -17,6 +17,7 @@ import os
 import sys
 from typing import Any, NamedTuple
 
+from morphogen import compile_cache
 from morphogen.errors import MorphogenError
 
 
@@ -109,6 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
     parser = build_parser()
     args = parser.parse_args(argv)
+    compile_cache.enable()
     try:
         return int(args.func(args) or 0)
     except MorphogenError as exc:
