@@ -46,10 +46,11 @@ def test_training_loss_gradient_matches_finite_differences():
                    for k, v in state.weights.items()}
         x = jnp.asarray(state.pool[:2], jnp.float64)
 
+        @jax.jit
         def value(w):
             return objective(w, x, 5, loss)[0]
 
-        grad = jax.grad(value)(weights)
+        grad = jax.jit(jax.grad(value))(weights)
         direction = {k: jnp.asarray(rng.normal(size=v.shape)) for k, v in weights.items()}
         analytic = sum(jnp.vdot(grad[k], direction[k]) for k in weights)
         h = 1e-6
