@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import io
 import json
 import os
 import subprocess
@@ -29,8 +31,26 @@ v = "b - u**2*v + Dv*lap(v)"
 
 
 def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    """``morphogen ARGS`` run in this process (from ``cwd``): its exit status and what it
+    printed. An exception that escapes ``main`` fails the test, as a traceback would."""
+    out, err = io.StringIO(), io.StringIO()
+    previous = Path.cwd()
+    try:
+        os.chdir(cwd or previous)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                code = main(list(args))
+            except SystemExit as exc:
+                code = exc.code
+    finally:
+        os.chdir(previous)
+    return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
+
+
+def run_cli_process(*args: str) -> subprocess.CompletedProcess:
+    """``morphogen ARGS`` in a fresh process, for settings global to a process (``--x64``)."""
     env = {**os.environ, "JAX_PLATFORMS": "cpu"}
-    return subprocess.run([sys.executable, "-m", "morphogen.cli.main", *args], cwd=cwd,
+    return subprocess.run([sys.executable, "-m", "morphogen.cli.main", *args],
                           capture_output=True, text=True, env=env, timeout=600)
 
 
@@ -170,7 +190,7 @@ def test_blow_up_is_reported_with_step(tmp_path):
 
 
 def test_float64_on_request(tmp_path):
-    result = run_cli("simulate", "gray-scott", "--size", "16x16", "--steps", "5", "--x64",
+    result = run_cli_process("simulate", "gray-scott", "--size", "16x16", "--steps", "5", "--x64",
                      "--out", str(tmp_path / "o"))
     assert result.returncode == 0, result.stderr
     assert np.load(tmp_path / "o" / "state.npz")["v"].dtype == np.float64
