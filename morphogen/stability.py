@@ -22,6 +22,7 @@ or values leaving the observed range by :data:`RANGE_FACTOR`.
 
 from __future__ import annotations
 
+import weakref
 from functools import partial
 from typing import Any
 
@@ -97,6 +98,26 @@ def coefficient_bound(d: Any) -> np.ndarray:
     return np.abs(np.asarray(d, np.float64))
 
 
+_JACOBIANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _jacobian_program(model: Model) -> Any:
+    """The model's batched reaction Jacobian ``(B, S), params -> (B, S, S)`` as one compiled
+    program, kept for the model's lifetime: op by op it compiles dozens of tiny programs, and a
+    new ``jit`` per call (a search checks every generation) would trace and compile again."""
+    if model not in _JACOBIANS:
+        coords = {"x": 0.5, "y": 0.5, "z": 0.5, "t": 0.0}
+
+        def jac(u, p):
+            def f(v):
+                return model.reaction(v.reshape(-1, 1), p, coords).reshape(-1)
+
+            return jax.jacfwd(f)(u)
+
+        _JACOBIANS[model] = jax.jit(jax.vmap(jac))
+    return _JACOBIANS[model]
+
+
 def reaction_jacobians(model: Model, params: Params, batched: bool) -> np.ndarray:
     """``J = dR/du`` at the ground state, shape ``(B, S, S)`` (``B = 1`` unless batched).
 
@@ -105,7 +126,6 @@ def reaction_jacobians(model: Model, params: Params, batched: bool) -> np.ndarra
     A ground state that cannot be found or gives a non-finite Jacobian counts as ``J = 0``.
     """
     n = len(model.species)
-    coords = {"x": 0.5, "y": 0.5, "z": 0.5, "t": 0.0}
     if batched:
         means = {k: np.asarray(v, np.float64).reshape(len(np.asarray(v)), -1).mean(axis=1)
                  for k, v in params.items()}
@@ -127,15 +147,8 @@ def reaction_jacobians(model: Model, params: Params, batched: bool) -> np.ndarra
     except (MorphogenError, ArithmeticError, ValueError, TypeError):
         return np.zeros((size, n, n))
 
-    def jac(u, p):
-        def f(v):
-            return model.reaction(v.reshape(-1, 1), p, coords).reshape(-1)
-
-        return jax.jacfwd(f)(u)
-
     p = {k: jnp.asarray(v, jnp.float32) for k, v in means.items()}
-    # One compiled program: op by op, the Jacobian compiles dozens of tiny ones (seconds).
-    out = np.asarray(jax.jit(jax.vmap(jac))(jnp.asarray(ground, jnp.float32), p), np.float64)
+    out = np.asarray(_jacobian_program(model)(jnp.asarray(ground, jnp.float32), p), np.float64)
     return np.where(np.isfinite(out).all(axis=(1, 2), keepdims=True), out, 0.0)
 
 
