@@ -148,7 +148,7 @@ def test_auto_picks_imex_on_stiff_schnakenberg_and_euler_on_gray_scott():
     assert stiffness_ratio(gray, Grid((256, 256)), dict(gray.params)) < AUTO_RATIO
     assert choose_scheme(gray, Grid((256, 256)), dict(gray.params)) == "euler"
     # a Dirichlet boundary has no Fourier solve: imex would solve by conjugate gradients,
-    # worth it only above AUTO_RATIO_CG (40), not at this ratio of 17.8
+    # worth it only above AUTO_RATIO_CG (25), not at this ratio of 17.8
     assert choose_scheme(SCHNAKENBERG, Grid((32, 32), boundary="dirichlet"), p) == "euler"
     # LINEAR: dt_R = 0.5 * 2 / k = 2, dt_E = 0.9 * 2 / (8 D + k): ratio 8.1
     f, _ = _mode()
