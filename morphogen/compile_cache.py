@@ -37,8 +37,10 @@ def enable(directory: str | Path | None = None) -> Path | None:
     or :func:`default_directory`); return the folder, or ``None`` when the cache is off or the
     folder cannot be created (the cache only saves time, so that is not an error).
 
-    Before JAX is imported this only sets JAX's environment variables, so a command that never
-    computes does not pay for importing JAX; afterwards it updates JAX's configuration.
+    It sets JAX's environment variables, which JAX reads when it is imported (so a command that
+    never computes does not pay for importing JAX) and which the processes this one starts
+    inherit (Ray workers, a server); when JAX is already imported it also updates its
+    configuration.
     """
     chosen = str(directory) if directory is not None else os.environ.get(ENV, "")
     if chosen.strip().lower() == "off":
@@ -52,12 +54,11 @@ def enable(directory: str | Path | None = None) -> Path | None:
                 "jax_persistent_cache_min_compile_time_secs": float(os.environ.get(
                     "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", MIN_COMPILE_SECONDS)),
                 "jax_compilation_cache_max_size": MAX_BYTES}
+    for name, value in settings.items():
+        os.environ[name.upper()] = str(value)  # for this process's JAX and the workers it starts
     if "jax" in sys.modules:
         import jax
 
         for name, value in settings.items():
             jax.config.update(name, value)
-    else:
-        for name, value in settings.items():
-            os.environ[name.upper()] = str(value)
     return path

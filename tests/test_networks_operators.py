@@ -56,7 +56,8 @@ def test_mutation_moves_fields_by_one():
     g = table2_genome(table2_spec())
     spec = table2_spec()
     ops = Operators(mode="rates", p_mutate_reaction=1.0)
-    out = jax.vmap(lambda k: mutate(k, g, spec, ops))(jax.random.split(jax.random.key(3), 200))
+    out = jax.jit(jax.vmap(lambda k: mutate(k, g, spec, ops)))(
+        jax.random.split(jax.random.key(3), 200))
     dm = np.abs(np.asarray(out.mantissa) - np.asarray(g.mantissa))
     de = np.abs(np.asarray(out.exponent) - np.asarray(g.exponent))
     assert (dm <= 1).all() and (de <= 1).all()
@@ -69,8 +70,9 @@ def test_mutation_moves_fields_by_one():
 def test_crossover_preserves_genes_per_slot():
     pop = random_population(jax.random.key(5), _one(_template(), 0), SPEC, 2, NET)
     a, b = _one(pop, 0), _one(pop, 1)
+    cross = jax.jit(lambda k: crossover(k, a, b, SPEC, NET))
     for s in range(20):
-        c, d = crossover(jax.random.key(s), a, b, SPEC, NET)
+        c, d = cross(jax.random.key(s))
         for x, y, cx, dx in zip(a, b, c, d, strict=True):
             x, y, cx, dx = map(np.asarray, (x, y, cx, dx))
             swapped = np.all(cx == y, axis=tuple(range(cx.ndim - 1)))

@@ -25,6 +25,7 @@ reaction with probability 0.1; crossover 0.8 per mating; duplication 0.04 per ma
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import jax
@@ -198,6 +199,7 @@ def _select(flag: Array, x: Genome, y: Genome) -> Genome:
     return Genome(*(jnp.where(flag, a, b) for a, b in zip(x, y, strict=True)))
 
 
+@partial(jax.jit, static_argnames=("spec", "size", "ops"))
 def random_population(key: Array, template: Genome, spec: NetworkSpec, size: int,
                       ops: Operators) -> Genome:
     """An initial population around ``template`` (one genome).
@@ -205,7 +207,8 @@ def random_population(key: Array, template: Genome, spec: NetworkSpec, size: int
     Rates of every non-imposed slot are drawn uniformly: mantissa in ``[10, 99]``, exponent in
     ``[exp_min, exp_max]``. In network mode each genome instead gets a single random evolvable
     reaction (§4.2) in its first evolvable slot: each side draws 4 molecules among the ``n``
-    species or none, entries clipped to 3, so the constraints hold.
+    species or none, entries clipped to 3, so the constraints hold. One compiled program per
+    (spec, size, operators): drawn op by op, each random draw compiled apart (seconds).
     """
     n, m = spec.n, spec.m_max
     fixed = jnp.asarray(spec.fixed_mask)
