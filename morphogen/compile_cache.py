@@ -21,6 +21,9 @@ from pathlib import Path
 
 ENV = "MORPHOGEN_COMPILE_CACHE"
 MAX_BYTES = 2 * 1024**3
+"""The cache's bound (JAX's ``JAX_COMPILATION_CACHE_MAX_SIZE``, when set, takes precedence; ``-1``
+is unbounded). A bounded cache lists its whole folder at every store to find what to evict, which
+costs time once it holds thousands of programs."""
 MIN_COMPILE_SECONDS = 0.0
 """Programs that compile faster than this are not stored. Zero: a small simulate compiles a few
 dozen programs of a few hundredths of a second each, and loading them all from disk saved 0.35 s
@@ -55,7 +58,8 @@ def enable(directory: str | Path | None = None) -> Path | None:
     settings = {"jax_compilation_cache_dir": str(path),
                 "jax_persistent_cache_min_compile_time_secs": float(os.environ.get(
                     "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", MIN_COMPILE_SECONDS)),
-                "jax_compilation_cache_max_size": MAX_BYTES}
+                "jax_compilation_cache_max_size": int(os.environ.get(
+                    "JAX_COMPILATION_CACHE_MAX_SIZE", MAX_BYTES))}
     for name, value in settings.items():
         os.environ[name.upper()] = str(value)  # for this process's JAX and the workers it starts
     if "jax" in sys.modules:

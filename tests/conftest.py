@@ -22,6 +22,10 @@ def shared_compile_cache(tmp_path_factory):
     base = tmp_path_factory.getbasetemp()
     root = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
     os.environ[compile_cache.ENV] = str(root / "compile-cache")
+    # A throwaway folder: unbounded (no listing of thousands of entries at every store), and
+    # only programs worth a disk read.
+    os.environ.setdefault("JAX_COMPILATION_CACHE_MAX_SIZE", "-1")
+    os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.2")
     compile_cache.enable()
 
 
