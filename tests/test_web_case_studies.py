@@ -112,8 +112,9 @@ def test_cancel_stops_a_long_case_study_between_chunks(client):
     running = _poll(client, job, lambda s: s["progress"] > 0 or s["status"] not in
                     ("queued", "running"))
     assert running["status"] == "running", running
-    # stage 2 of 2 (the simulation) carries all of the progress
-    assert "stage 2 of 2 (grow)" in running["message"] and running["progress"] < 0.01
+    # stage 2 of 2 (the simulation) carries all of the progress, a million steps of it, so
+    # however late the poll sees it, it is far from done
+    assert "stage 2 of 2 (grow)" in running["message"] and 0 < running["progress"] < 0.25
     assert running["eta_s"] is not None and running["eta_s"] > 0
     client.delete(f"/api/jobs/{job}")
     stopped = _poll(client, job, lambda s: s["status"] != "running", timeout=30.0)
