@@ -19,15 +19,16 @@ speed of Euler and imex at their limits is timed (``example_size``).
 from __future__ import annotations
 
 import math
-import os
 import statistics
 import tempfile
 import time
+from functools import partial
 from pathlib import Path
 
 import jax
 import numpy as np
 
+from bench.timing import interleaved
 from morphogen.autoscheme import choose_scheme, stiffness_ratio
 from morphogen.errors import MorphogenError
 from morphogen.imex_cg import CG_MAXITER, CG_RTOL
@@ -98,18 +99,14 @@ def _full_size() -> dict:
         return simulate(model, mesh, u0, p, steps=steps, dt=T / steps, scheme=scheme)
 
     states = {name: go(name).state[0] for name in runs}
-    times: dict[str, list[float]] = {name: [] for name in runs}
-    for _ in range(2):
-        for name in runs:
-            t0 = time.perf_counter()
-            go(name)
-            times[name].append(round(time.perf_counter() - t0, 3))
+    wall, _, load_after = interleaved({name: partial(go, name) for name in runs}, 2)
+    times = {name: [round(t, 3) for t in rounds] for name, rounds in wall.items()}
     diff = np.linalg.norm(states["imex"] - states["euler"]) / np.linalg.norm(states["euler"])
     return {"vertices": mesh.n_vertices, "mean_edge": round(mesh.edge_length, 4),
             "dt": {k: round(v, 4) for k, v in runs.items()}, "wall_s_rounds": times,
             "speedup_imex_vs_euler": round(min(times["euler"]) / min(times["imex"]), 2),
             "relative_l2_difference_a_imex_vs_euler": float(diff),
-            "load_average_after": os.getloadavg()}
+            "load_average_after": load_after}
 
 
 def run() -> dict:
@@ -133,14 +130,8 @@ def run() -> dict:
                  {k: np.asarray(v, np.float64) for k, v in p.items()}).state[0]
     ref_wall = time.perf_counter() - start
     results = {name: go(*c) for name, c in runs.items()}
-    load_before = os.getloadavg()
-    times: dict[str, list[float]] = {name: [] for name in runs}
-    for _ in range(ROUNDS):
-        for name, c in runs.items():
-            t0 = time.perf_counter()
-            go(*c)
-            times[name].append(time.perf_counter() - t0)
-    load_after = os.getloadavg()
+    times, load_before, load_after = interleaved(
+        {name: partial(go, *c) for name, c in runs.items()}, ROUNDS)
     euler_name = next(iter(runs))
     euler_time = statistics.median(times[euler_name])
     table = {}

@@ -13,14 +13,15 @@ the stored result.
 from __future__ import annotations
 
 import json
-import os
 import statistics
 import time
+from functools import partial
 from pathlib import Path
 
 import jax
 import numpy as np
 
+from bench.timing import interleaved
 from morphogen.autoscheme import choose_scheme, stiffness_ratio
 from morphogen.domains.grid import Grid
 from morphogen.initial import make_initial
@@ -72,14 +73,8 @@ def run() -> dict:
     ref_u, ref_wall = reference.state[0], time.perf_counter() - start
 
     results = {name: go(c) for name, c in runs.items()}  # compile (and the accuracy runs)
-    load_before = os.getloadavg()
-    times: dict[str, list[float]] = {name: [] for name in runs}
-    for _ in range(ROUNDS):
-        for name, c in runs.items():
-            t0 = time.perf_counter()
-            go(c)
-            times[name].append(time.perf_counter() - t0)
-    load_after = os.getloadavg()
+    times, load_before, load_after = interleaved(
+        {name: partial(go, c) for name, c in runs.items()}, ROUNDS)
     euler_name = next(iter(runs))
     euler_time = statistics.median(times[euler_name])
     table = {}
