@@ -8,6 +8,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
+from web_support import finished, poll_job
 
 from morphogen.cli.main import main as cli
 from morphogen.domains.grid import Grid
@@ -324,11 +325,7 @@ def test_atlas_job_lays_tiles_out_for_clicks(client):
     body = {"x": {"name": "k", "lo": 0.05, "hi": 0.065, "n": 3},
             "y": {"name": "F", "lo": 0.02, "hi": 0.04, "n": 2}, "tile": 16, "steps": 40}
     job = client.post("/api/atlas", json=body).json()["job"]
-    for _ in range(600):
-        status = client.get(f"/api/jobs/{job}").json()
-        if status["status"] in ("done", "error"):
-            break
-        time.sleep(0.05)
+    status = poll_job(client, job, finished, timeout=30.0)
     assert status["status"] == "done", status
     res = status["result"]
     assert res["x"]["values"] == pytest.approx([0.05, 0.0575, 0.065])
@@ -364,11 +361,7 @@ def test_serve_refuses_a_bad_port(capsys):
 
 def test_mesh_job_returns_a_coloured_flower(client):
     job = client.post("/api/mesh", json={"shape": "petal", "size": 40, "steps": 50}).json()["job"]
-    for _ in range(600):
-        status = client.get(f"/api/jobs/{job}").json()
-        if status["status"] in ("done", "error"):
-            break
-        time.sleep(0.05)
+    status = poll_job(client, job, finished, timeout=30.0)
     assert status["status"] == "done", status
     res = status["result"]
     v = np.asarray(res["vertices"]).reshape(-1, 3)
@@ -389,12 +382,7 @@ def test_mesh_job_returns_a_coloured_flower(client):
 
 def _mesh_job(client, body):
     job = client.post("/api/mesh", json=body).json()["job"]
-    for _ in range(1200):
-        status = client.get(f"/api/jobs/{job}").json()
-        if status["status"] in ("done", "error"):
-            return status
-        time.sleep(0.05)
-    raise AssertionError(status)
+    return poll_job(client, job, finished, timeout=60.0)
 
 
 def test_mesh_modelling_loop_paints_continues_and_writes_the_pipeline_files(client, tmp_path):
@@ -454,29 +442,19 @@ def test_mesh_limits_and_the_size_error_name_the_detail(client):
     assert r.status_code == 400 and "the size can be at most 106" in r.json()["error"]
 
 
-def _poll(client, job, until, timeout=120.0):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        status = client.get(f"/api/jobs/{job}").json()
-        if until(status):
-            return status
-        time.sleep(0.05)
-    raise AssertionError(f"job {job} never reached the state: {status}")
-
-
 def test_atlas_cancel_stops_the_computation_between_chunks(client):
     """Cancel takes effect after the chunk in progress (250 steps), not when the whole atlas
     would have finished; the job reports its share done and an ETA while it runs."""
     body = {"x": {"name": "k", "lo": 0.05, "hi": 0.065, "n": 4},
             "y": {"name": "F", "lo": 0.02, "hi": 0.04, "n": 4}, "tile": 32, "steps": 150_000}
     job = client.post("/api/atlas", json=body).json()["job"]
-    running = _poll(client, job, lambda s: s["progress"] > 0 or s["status"] != "running"
+    running = poll_job(client, job, lambda s: s["progress"] > 0 or s["status"] != "running"
                     and s["status"] != "queued")
     assert running["status"] == "running" and 0 < running["progress"] < 0.01
     assert running["eta_s"] is not None and running["eta_s"] > 0
     assert "step" in running["message"]
     client.delete(f"/api/jobs/{job}")
-    stopped = _poll(client, job, lambda s: s["status"] != "running", timeout=30.0)
+    stopped = poll_job(client, job, lambda s: s["status"] != "running", timeout=30.0)
     assert stopped["status"] == "cancelled" and stopped["progress"] < 0.5
     assert stopped["eta_s"] is None
 

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import time
-
 import imageio.v3 as iio
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
+from web_support import finished, poll_job
 
 from morphogen.atlas import Axis, classify_atlas, compute_atlas, write_families
 from morphogen.domains.grid import Grid
@@ -29,11 +28,7 @@ def client():
 
 def _done(client, body):
     job = client.post("/api/atlas", json=body).json()["job"]
-    for _ in range(1200):
-        status = client.get(f"/api/jobs/{job}").json()
-        if status["status"] in ("done", "error"):
-            break
-        time.sleep(0.05)
+    status = poll_job(client, job, finished, timeout=60.0)
     assert status["status"] == "done", status
     return status["result"]
 

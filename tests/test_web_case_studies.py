@@ -3,51 +3,28 @@ cancel, from an examples folder the test makes."""
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
+from web_support import TINY_PETAL, finished, poll_job
 
 from morphogen.mesh_io import load_mesh, ply_fields
 from morphogen.pipeline import load_pipeline, run_pipeline
 from morphogen.web.app import create_app
 from morphogen.web.case_studies import overall
 
-TINY = """# A tiny petal (Ringham et al. 2021, §4.2, used only by the tests)
-seed = 1
-view = "top"
-
-[mesh]
-shape = "petal"
-edge = 0.2
-
-[[stage]]
-name = "colour"
-kind = "fields"
-fields = { m = "s" }
-
-[[stage]]
-name = "grow"
-kind = "simulate"
-model = "gray-scott"
-steps = STEPS
-initial = { v = "where(s > 0.5, 0.25, 0)", u = "where(s > 0.5, 0.5, 1)" }
-show = "v"
-cmap = "magma"
-"""
-
 
 @pytest.fixture(scope="module")
 def examples(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("examples")
     (root / "flowers").mkdir()
-    (root / "flowers" / "tiny.toml").write_text(TINY.replace("STEPS", "500"))
+    (root / "flowers" / "tiny.toml").write_text(TINY_PETAL.replace("STEPS", "500"))
     (root / "flowers" / "endless.toml").write_text(
-        TINY.replace("STEPS", "1000000").replace("§4.2", "§4.9"))
+        TINY_PETAL.replace("STEPS", "1000000").replace("§4.2", "§4.9"))
     (root / "flowers" / "broken.toml").write_text(
-        TINY.replace("STEPS", "500").replace("§4.2", "§4.10")
+        TINY_PETAL.replace("STEPS", "500").replace("§4.2", "§4.10")
         .replace('kind = "fields"', 'kind = "nope"'))
     (root / "flowers" / "model.toml").write_text('species = ["m"]\n')  # not a pipeline
     return root
@@ -57,16 +34,6 @@ def examples(tmp_path_factory) -> Path:
 def client(examples):
     with TestClient(create_app(allowed_hosts=["testserver"], examples=examples)) as c:
         yield c
-
-
-def _poll(client, job, until, timeout=120.0):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        status = client.get(f"/api/jobs/{job}").json()
-        if until(status):
-            return status
-        time.sleep(0.05)
-    raise AssertionError(f"job {job} never got there: {status}")
 
 
 def test_the_menu_lists_pipelines_with_their_sections(client):
@@ -87,7 +54,7 @@ def test_the_shipped_flowers_are_offered_by_default():
 
 def test_a_case_study_is_the_cli_pipeline_shown_in_the_viewer(client, examples, tmp_path):
     job = client.post("/api/mesh/cases", json={"name": "tiny"}).json()["job"]
-    status = _poll(client, job, lambda s: s["status"] in ("done", "error"))
+    status = poll_job(client, job, finished)
     assert status["status"] == "done", status
     res = status["result"]
     assert res["stage"] == "02-grow" and res["caption"] == "tiny (Ringham §4.2)"
@@ -109,7 +76,7 @@ def test_a_case_study_is_the_cli_pipeline_shown_in_the_viewer(client, examples, 
 
 def test_cancel_stops_a_long_case_study_between_chunks(client):
     job = client.post("/api/mesh/cases", json={"name": "endless"}).json()["job"]
-    running = _poll(client, job, lambda s: s["progress"] > 0 or s["status"] not in
+    running = poll_job(client, job, lambda s: s["progress"] > 0 or s["status"] not in
                     ("queued", "running"))
     assert running["status"] == "running", running
     # stage 2 of 2 (the simulation) carries all of the progress, a million steps of it, so
@@ -117,7 +84,7 @@ def test_cancel_stops_a_long_case_study_between_chunks(client):
     assert "stage 2 of 2 (grow)" in running["message"] and 0 < running["progress"] < 0.25
     assert running["eta_s"] is not None and running["eta_s"] > 0
     client.delete(f"/api/jobs/{job}")
-    stopped = _poll(client, job, lambda s: s["status"] != "running", timeout=30.0)
+    stopped = poll_job(client, job, lambda s: s["status"] != "running", timeout=30.0)
     assert stopped["status"] == "cancelled" and stopped["progress"] < 0.5
 
 

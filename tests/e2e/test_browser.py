@@ -19,6 +19,7 @@ from pathlib import Path
 import imageio.v3 as iio
 import numpy as np
 import pytest
+from web_support import TINY_PETAL
 
 HERE = Path(__file__).parent
 ROOT = HERE.parent.parent
@@ -28,29 +29,8 @@ LAMBDA = 0.9  # Skaggs eq. 3.9
 # against a server that warms its models up as `morphogen serve` does; the suite skips both.
 MEASURE = bool(os.environ.get("MORPHOGEN_E2E_MEASURE"))
 WARM_UP = [] if MEASURE else ["--no-warm-up"]
-# The Mesh page's case studies in the suite: a tiny petal pipeline (a fields stage and a short
-# simulation) and an endless one to cancel; MORPHOGEN_E2E_EXAMPLES serves another examples folder.
-CASE = """# A tiny petal (Ringham et al. 2021, §4.2, used only by the tests)
-view = "top"
-
-[mesh]
-shape = "petal"
-edge = 0.2
-
-[[stage]]
-name = "colour"
-kind = "fields"
-fields = { m = "s" }
-
-[[stage]]
-name = "grow"
-kind = "simulate"
-model = "gray-scott"
-steps = STEPS
-initial = { v = "where(s > 0.5, 0.25, 0)", u = "where(s > 0.5, 0.5, 1)" }
-show = "v"
-cmap = "magma"
-"""
+# The Mesh page's case studies in the suite: the tiny petal pipeline and an endless one to
+# cancel; MORPHOGEN_E2E_EXAMPLES serves another examples folder.
 
 
 @pytest.fixture(scope="module")
@@ -72,9 +52,9 @@ def server(browser_ready, tmp_path_factory):
     if not examples:
         examples = tmp_path_factory.mktemp("examples")
         (examples / "flowers").mkdir()
-        (examples / "flowers" / "tiny.toml").write_text(CASE.replace("STEPS", "500"))
+        (examples / "flowers" / "tiny.toml").write_text(TINY_PETAL.replace("STEPS", "500"))
         (examples / "flowers" / "endless.toml").write_text(
-            CASE.replace("STEPS", "1000000").replace("§4.2", "§4.9"))
+            TINY_PETAL.replace("STEPS", "1000000").replace("§4.2", "§4.9"))
     env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONUNBUFFERED": "1"}
     log_path = OUT / "server.log"
     with open(log_path, "w") as log:
