@@ -8,6 +8,7 @@ export class Runs {
   constructor(root, app) {
     this.root = root.querySelector('#runs-root');
     this.app = app;
+    this.view = 0;
     window.morphogenRuns = this;
   }
 
@@ -22,7 +23,11 @@ export class Runs {
     );
   }
 
-  show() { this.refresh(); }
+  // coming back to the page refreshes the list and the run on show, which may have moved on
+  show() {
+    this.refresh();
+    if (this.run) this.open(this.run.id);
+  }
 
   async refresh() {
     try {
@@ -48,10 +53,14 @@ export class Runs {
     } catch (err) { showError(this.error, err.message); }
   }
 
+  // Each open or delete takes a new view number; an open whose answers arrive after a newer
+  // view began (a second click, a deletion) leaves the detail alone instead of overwriting it.
   async open(id) {
     for (const tr of this.list.querySelectorAll('tr[data-run]')) tr.classList.toggle('sel', tr.dataset.run === id);
+    const view = ++this.view;
     try {
       const run = await api(`/api/runs/${id}`);
+      if (view !== this.view) return;
       this.run = run;
       if (run.kind === 'networks') {
         this.detail.replaceChildren(...this.network(run));
@@ -63,6 +72,7 @@ export class Runs {
         ...run.history.map((g) => el('option', { value: g.gen, text: `generation ${g.gen} (best ${fmt(g.best ?? NaN)})` })));
       this.sheet = el('div', { id: 'runs-sheet' });
       const live = await api(`/api/evolve/${id}`).catch(() => null);
+      if (view !== this.view) return;
       const waiting = live && ['running', 'choose'].includes(live.state);
       const resume = waiting ? el('button', {
         type: 'button', id: 'runs-continue', class: 'primary',
@@ -94,7 +104,7 @@ export class Runs {
         picker.value = run.history[run.history.length - 1].gen;
         await this.generation(Number(picker.value));
       }
-    } catch (err) { showError(this.error, err.message); }
+    } catch (err) { if (view === this.view) showError(this.error, err.message); }
   }
 
   // a reaction-network run (`morphogen networks` or the Evolve page's network mode): its
@@ -134,6 +144,7 @@ export class Runs {
 
   async remove(id) {
     if (!window.confirm(`Delete run ${id}: its archive entry and its folder of pictures? This cannot be undone.`)) return;
+    this.view += 1;
     try {
       await api(`/api/runs/${id}`, { method: 'DELETE' });
       this.run = null;
