@@ -12,6 +12,11 @@ class MorphogenError(ValueError):
     """A user-facing error: the message says what is wrong and how to fix it."""
 
 
+class MorphogenWarning(UserWarning):
+    """A problem that did not stop the run but makes its result less trustworthy; the
+    command line prints it as one ``morphogen: warning:`` line."""
+
+
 class BlowUpError(MorphogenError):
     """The simulation produced NaN, Inf or values beyond the overflow threshold.
 

@@ -36,8 +36,9 @@ from morphogen.models.model import Array, Model, Params, Tensor
 
 IMEX_SCHEMES = ("imex1", "imex")
 
-_G = 1.0 - 1.0 / np.sqrt(2.0)
-_D = 1.0 - 1.0 / (2.0 * _G)
+ARS_GAMMA = 1.0 - 1.0 / np.sqrt(2.0)
+"""ARS(2,2,2)'s implicit weight: each of its two solves is ``(I - ARS_GAMMA dt L) x = b``."""
+_D = 1.0 - 1.0 / (2.0 * ARS_GAMMA)
 
 
 def require_spectral_grid(domain: Any, species: tuple[str, ...], scheme: str) -> None:
@@ -128,12 +129,12 @@ def make_imex_advance(
         r0 = model.reaction(u, p, c)
         if scheme == "imex1":
             return solver.solve(u + dt * r0, d, dt, u)
-        stage = solver.solve(u + _G * dt * r0, d, _G * dt, u)
-        c2 = {**coords, "t": t + _G * dt}
+        stage = solver.solve(u + ARS_GAMMA * dt * r0, d, ARS_GAMMA * dt, u)
+        c2 = {**coords, "t": t + ARS_GAMMA * dt}
         r1 = model.reaction(stage, p, c2)
         rhs = u + dt * (_D * r0 + (1.0 - _D) * r1)
-        rhs = rhs + (1.0 - _G) * dt * domain.diffuse(stage, d, bcs)
-        return solver.solve(rhs, d, _G * dt, stage)
+        rhs = rhs + (1.0 - ARS_GAMMA) * dt * domain.diffuse(stage, d, bcs)
+        return solver.solve(rhs, d, ARS_GAMMA * dt, stage)
 
     return advance
 
@@ -143,5 +144,5 @@ def amplification(scheme: str, z: np.ndarray) -> np.ndarray:
     z = np.asarray(z, np.float64)
     if scheme == "imex1":
         return 1.0 / (1.0 - z)
-    stage = 1.0 / (1.0 - _G * z)
-    return (1.0 + (1.0 - _G) * z * stage) / (1.0 - _G * z)
+    stage = 1.0 / (1.0 - ARS_GAMMA * z)
+    return (1.0 + (1.0 - ARS_GAMMA) * z * stage) / (1.0 - ARS_GAMMA * z)

@@ -35,9 +35,11 @@ diagonal (Jacobi). It stops when
           10^{-2}\\,\\mathrm{tol}\\,\\|M z\\|_2)
 
 with ``tol`` = :data:`CG_RTOL` (float32; :data:`CG_RTOL_X64` in float64), or after
-:data:`CG_MAXITER` iterations. Where the fluxes are conservative (meshes, grid tensors) and no
-value is held, the ``M``-weighted mass is then restored exactly (the true solution has
-``1^T M x = 1^T M b`` because ``1^T K_D = 0``): a uniform shift of the size of the residual.
+:data:`CG_MAXITER` iterations (a solve stopped there, far from its tolerance, is reported
+after the run by :mod:`morphogen.solve_watch`). Where the fluxes are conservative (meshes,
+grid tensors) and no value is held, the ``M``-weighted mass is then restored exactly (the true
+solution has ``1^T M x = 1^T M b`` because ``1^T K_D = 0``): a uniform shift of the size of the
+residual.
 (``D(x) L_h`` on grids does not conserve mass, and is left as solved.) Species with constant
 scalar ``D`` and periodic or no-flux grid boundaries keep the exact Fourier solve of
 :mod:`morphogen.imex`.
@@ -50,6 +52,8 @@ iterations. Everything is ``jit``- and ``vmap``-friendly (the iterations are a
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import jax
@@ -75,10 +79,12 @@ def _dot(a: Array, b: Array) -> Array:
 
 
 def pcg(matvec: Any, b: Array, x0: Array | None, inv_diag: Array, tol: float, atol: Array,
-        maxiter: int = CG_MAXITER) -> tuple[Array, Array]:
+        maxiter: int | None = None) -> tuple[Array, Array]:
     """Jacobi-preconditioned CG for a symmetric positive definite ``matvec``, from ``x0``
     (``None``: zero); returns ``(x, iterations)``. Stops at
-    ``||b - A x|| <= max(tol ||b||, atol)`` or after ``maxiter`` iterations."""
+    ``||b - A x|| <= max(tol ||b||, atol)`` or after ``maxiter`` (default
+    :data:`CG_MAXITER`, read when the solve is traced) iterations."""
+    maxiter = CG_MAXITER if maxiter is None else maxiter
     limit = jnp.maximum(tol * tol * _dot(b, b), atol * atol)
     x0, r = (jnp.zeros_like(b), b) if x0 is None else (x0, b - matvec(x0))
     z = inv_diag * r
@@ -164,6 +170,24 @@ class ImplicitDiffusion:
         return jnp.stack(rows)
 
     def _iterate(self, i: int, z: Array, d: Any, c: Array, x0: Array) -> Array:
+        system = self._system(i, z, d, c, x0)
+        return system.finish(system.solve())
+
+    def residual_ratios(self, b: Array, coeffs: tuple[Any, ...], c: Array, x0: Array) -> Array:
+        """Per species, the final residual of the iterative solve of ``(I - c L_{D_i}) x = b_i``
+        over its stopping threshold, shape ``(S,)``: at most 1 when the solve converged, above
+        1 when it stopped at :data:`CG_MAXITER` first; 0 for species solved exactly."""
+        z = self.domain.hold(b, self.bcs)
+        ratios = []
+        for i, d in enumerate(coeffs):
+            if (isinstance(d, int | float) and d == 0) or self.fourier(i, d):
+                ratios.append(jnp.zeros((), b.dtype))
+                continue
+            system = self._system(i, z[i], d, c, x0[i])
+            ratios.append(system.ratio(system.solve()))
+        return jnp.stack(ratios)
+
+    def _system(self, i: int, z: Array, d: Any, c: Array, x0: Array) -> _System:
         dtype = z.dtype
         tol = CG_RTOL_X64 if dtype == np.float64 else CG_RTOL
         m = jnp.asarray(self.free[i], dtype)
@@ -181,14 +205,15 @@ class ImplicitDiffusion:
         def matvec(v: Array) -> Array:
             return w * v - cw * op(m * v if held else v)
 
-        rhs = cw * op(z)
+        def finish(v: Array) -> Array:
+            if not held:  # conservative fluxes: restore the exact M-weighted mass
+                v = v - jnp.sum(w * v) / jnp.sum(w)
+            return z + v
+
         inv_diag = 1.0 / (w * (1.0 + c * m * self._diagonal(d, dtype)))
         atol = 1e-2 * tol * jnp.sqrt(_dot(w * z, w * z))
-        v = _linear_solve(matvec, rhs, m * (x0 - z), inv_diag, tol, atol,
-                          symmetric=self.on_mesh)
-        if self.free[i].all():  # conservative fluxes: restore the exact M-weighted mass
-            v = v - jnp.sum(w * v) / jnp.sum(w)
-        return z + v
+        return _System(matvec, cw * op(z), m * (x0 - z), inv_diag, tol, atol, self.on_mesh,
+                       finish)
 
     def _diagonal(self, d: Any, dtype: Any) -> Array:
         """Approximate diagonal of ``-L_D`` for the Jacobi preconditioner, ``(*spatial)``."""
@@ -200,7 +225,7 @@ class ImplicitDiffusion:
         return rate * self.centre
 
     def _grid_isotropic(self, z: Array, d: Any, bc: Any, c: Array, x0: Array, m: Array,
-                        tol: float) -> Array:
+                        tol: float) -> _System:
         """``x = z + S w`` with ``(I - c S L_h S) w = c S L_h z``, ``S = diag(sqrt(D) free)``."""
         d = jnp.broadcast_to(jnp.asarray(d, z.dtype), z.shape)
         pos = d > 0
@@ -211,8 +236,33 @@ class ImplicitDiffusion:
         def matvec(w: Array) -> Array:
             return w - cs * self.domain.laplacian(s * w, bc)
 
-        rhs = cs * self.domain.laplacian(z, bc)
         w0 = jnp.where(s > 0, (x0 - z) / jnp.where(s > 0, s, 1.0), 0.0)
         inv_diag = 1.0 / (1.0 + c * s * s * self.centre)
         atol = 1e-2 * tol * jnp.sqrt(_dot(z, z))
-        return z + s * _linear_solve(matvec, rhs, w0, inv_diag, tol, atol, symmetric=True)
+        return _System(matvec, cs * self.domain.laplacian(z, bc), w0, inv_diag, tol, atol, True,
+                       lambda w: z + s * w)
+
+
+@dataclass
+class _System:
+    """One species' linear system ``A v = rhs`` (``matvec`` applies ``A``), the solver's
+    settings, and ``finish``, which turns the solution ``v`` into the new state."""
+
+    matvec: Callable[[Array], Array]
+    rhs: Array
+    v0: Array
+    inv_diag: Array
+    tol: float
+    atol: Array
+    symmetric: bool
+    finish: Callable[[Array], Array]
+
+    def solve(self) -> Array:
+        return _linear_solve(self.matvec, self.rhs, self.v0, self.inv_diag, self.tol, self.atol,
+                             self.symmetric)
+
+    def ratio(self, v: Array) -> Array:
+        """``||rhs - A v||`` over the stopping threshold ``max(tol ||rhs||, atol)``."""
+        r = self.rhs - self.matvec(v)
+        limit = jnp.maximum(self.tol * jnp.sqrt(_dot(self.rhs, self.rhs)), self.atol)
+        return jnp.sqrt(_dot(r, r)) / jnp.maximum(limit, jnp.finfo(r.dtype).tiny)

@@ -296,6 +296,7 @@ def run_record(prep: Prepared, solution: Solution, wall: float) -> dict[str, Any
             "clamp": prep.model.clamp if prep.config.clamp == "model" else prep.config.clamp,
             "scheme": solution.scheme,
             **_adaptive_record(solution),
+            **({"warnings": solution.warnings} if solution.warnings else {}),
         },
         "provenance": {
             "morphogen": _version("morphogen"),

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -22,9 +23,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.autoscheme import choose_scheme
-from morphogen.errors import BlowUpError, DivergenceError, MorphogenError
+from morphogen.errors import BlowUpError, DivergenceError, MorphogenError, MorphogenWarning
 from morphogen.models.model import Array, Model, Params
 from morphogen.progress import ProgressBar
+from morphogen.solve_watch import SolveWatch
 from morphogen.stability import divergence_flags, observed_scale
 from morphogen.steppers import Noise, check_stability, make_step, max_stable_dt
 
@@ -126,6 +128,8 @@ class Solution:
         rejected_steps: steps the error controller rejected (``adaptive`` only; ``steps`` then
             counts the accepted ones).
         snapshot_times: the time of each snapshot.
+        warnings: one line per problem that did not stop the run (an implicit solve that
+            stopped at its iteration cap: :mod:`morphogen.solve_watch`).
     """
 
     state: np.ndarray
@@ -139,6 +143,7 @@ class Solution:
     scheme: str = ""
     rejected_steps: int | None = None
     snapshot_times: list[float] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
 
 def simulate(
@@ -267,6 +272,8 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
     n_batch = u.shape[0] if batched else 1
     first_bad = np.zeros(n_batch, np.int64)
     watch = None if unsafe else _Watch(model, domain, u, p, dt, scheme, batched)
+    solves = (SolveWatch(model, domain, scheme)
+              if SolveWatch.needed(model, domain, p, scheme, batched) else None)
     t = jnp.asarray(0.0, dtype)
     done = 0
     bar = ProgressBar(steps, enabled=progress, unit="step")
@@ -289,12 +296,17 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
             if newly.any() and not batched:
                 bar.close()
                 raise watch.error(diverging[0], done, float(t))
+        if solves is not None:
+            solves.check(u, p, t, dt, done)
         if shots and (done % every == 0 or done == steps):
             shots.add(done, u)
         bar.update(n)
         if on_chunk is not None:
             on_chunk(n)
     bar.close()
+    warning = solves.warning() if solves is not None else None
+    if warning:
+        warnings.warn(warning, MorphogenWarning, stacklevel=3)
     state = np.asarray(u)
     snaps, snap_steps = shots.result() if shots else (None, [])
     return Solution(
@@ -308,6 +320,7 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
         wall_time=time.perf_counter() - start,
         scheme=scheme,
         snapshot_times=[k * dt for k in snap_steps],
+        warnings=[warning] if warning else [],
     )
 
 

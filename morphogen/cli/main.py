@@ -15,10 +15,11 @@ import argparse
 import importlib
 import os
 import sys
+import warnings
 from typing import Any, NamedTuple
 
 from morphogen import compile_cache
-from morphogen.errors import MorphogenError
+from morphogen.errors import MorphogenError, MorphogenWarning
 
 
 class Command(NamedTuple):
@@ -106,13 +107,24 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message: Any, category: type, filename: str, lineno: int, file: Any = None,
+                  line: str | None = None) -> None:
+    """Print a :class:`MorphogenWarning` as one line; others as Python prints them."""
+    if issubclass(category, MorphogenWarning):
+        sys.stderr.write(f"morphogen: warning: {message}\n")
+    else:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+
 def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
     parser = build_parser()
     args = parser.parse_args(argv)
     compile_cache.enable()
     try:
-        return int(args.func(args) or 0)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return int(args.func(args) or 0)
     except MorphogenError as exc:
         sys.stderr.write(f"morphogen: error: {exc}\n")
         return 2

@@ -1,0 +1,89 @@
+"""Whether the iterative implicit-diffusion solves of an IMEX run converge.
+
+A conjugate-gradient (or BiCGSTAB) solve of :mod:`morphogen.imex_cg` stops at its tolerance or
+after :data:`~morphogen.imex_cg.CG_MAXITER` iterations, whichever comes first; inside the
+compiled time loop nothing can be reported. So between two compiled chunks, :class:`SolveWatch`
+repeats the first solve of the next step exactly as the step does it — right-hand side
+``b = u + gamma dt R(u)``, ``c = gamma dt`` (``gamma = 1 - 1/sqrt 2`` for ARS(2,2,2), 1 for
+``imex1``), warm start ``x0 = u`` — and measures its final residual against its stopping
+threshold ``max(tol ||rhs||, atol)``. A ratio above :data:`REPORT_RATIO` means the solve
+stopped at the cap, far from its tolerance: the run goes on (its diffusion is then less
+accurate than documented, not unstable), and :meth:`SolveWatch.warning` says which species,
+at which step, by how much, and what to do. The probe costs one solve per chunk (a chunk is up
+to 250 steps).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from morphogen import imex_cg
+from morphogen.imex import ARS_GAMMA, IMEX_SCHEMES
+from morphogen.imex_cg import ImplicitDiffusion
+from morphogen.models.model import Array, Model, Params
+from morphogen.steppers import held_mask
+
+REPORT_RATIO = 10.0
+"""Residual over the stopping threshold above which an unconverged solve is reported (the
+recomputed residual of a converged float32 solve can exceed its recursive one slightly)."""
+
+
+def iterative_species(model: Model, domain: Any, params: Params, solver: ImplicitDiffusion
+                      ) -> bool:
+    """Whether any species' implicit solve is iterative (not an exact Fourier solve)."""
+    coords = {**domain.coords, "t": 0.0}
+    coeffs = model.diffusion({k: jnp.asarray(v) for k, v in params.items()}, coords)
+    return any(not (isinstance(d, int | float) and d == 0) and not solver.fourier(i, d)
+               for i, d in enumerate(coeffs))
+
+
+class SolveWatch:
+    """Probe the next step's first implicit solve between chunks; remember the worst one."""
+
+    def __init__(self, model: Model, domain: Any, scheme: str):
+        self.model, self.domain = model, domain
+        solver = ImplicitDiffusion(domain, model.species, held_mask(model, domain))
+        self.solver = solver
+        gamma = 1.0 if scheme == "imex1" else ARS_GAMMA
+        coords = {k: jnp.asarray(v) for k, v in domain.coords.items()}
+        bcs = domain.boundaries(model.species)
+
+        def probe(u: Array, p: Params, t: Array, dt: Array) -> Array:
+            c = {**coords, "t": t}
+            u = domain.hold(u, bcs)
+            b = u + gamma * dt * model.reaction(u, p, c)
+            return solver.residual_ratios(b, tuple(model.diffusion(p, c)), gamma * dt, u)
+
+        self.probe = jax.jit(probe)
+        self.worst = 0.0
+        self.where: tuple[int, str] | None = None
+
+    @staticmethod
+    def needed(model: Model, domain: Any, params: Params, scheme: str, batched: bool) -> bool:
+        """Whether a run should be watched: an IMEX scheme with an iterative solve, one state."""
+        if batched or scheme not in IMEX_SCHEMES:
+            return False
+        solver = ImplicitDiffusion(domain, model.species, held_mask(model, domain))
+        return iterative_species(model, domain, params, solver)
+
+    def check(self, u: Array, p: Params, t: Array, dt: float, step: int) -> None:
+        """Probe the solve from state ``u`` at time ``t`` (after ``step`` steps)."""
+        ratios = np.asarray(self.probe(u, p, t, jnp.asarray(dt, u.dtype)), np.float64)
+        i = int(np.argmax(ratios))
+        if np.isfinite(ratios[i]) and ratios[i] > max(self.worst, REPORT_RATIO):
+            self.worst, self.where = float(ratios[i]), (step, self.model.species[i])
+
+    def warning(self) -> str | None:
+        """One line naming the worst unconverged solve, or ``None`` if every probe converged."""
+        if self.where is None:
+            return None
+        step, name = self.where
+        cap = imex_cg.CG_MAXITER
+        return (f"the implicit diffusion solve of species {name} stopped at its "
+                f"{cap}-iteration cap with a residual {self.worst:.3g}x its tolerance "
+                f"(after step {step}); diffusion is less accurate than documented: use a "
+                "smaller --dt")
