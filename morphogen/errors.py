@@ -56,10 +56,11 @@ class DivergenceError(BlowUpError):
     Attributes:
         step, species, t: as for :class:`BlowUpError`.
         dt_suggested: a step to retry with.
+        alternative: text after the suggested step, e.g. another scheme to try.
     """
 
     def __init__(self, step: int, species: tuple[str, ...], t: float, what: str,
-                 dt_suggested: float):
+                 dt_suggested: float, alternative: str = ""):
         self.step = step
         self.species = species
         self.t = t
@@ -68,5 +69,5 @@ class DivergenceError(BlowUpError):
         ValueError.__init__(
             self,
             f"run diverging at step {step} (t={t:g}) in species {names}: {what}; "
-            f"use --dt {dt_suggested:.6g} or smaller (or --unsafe to run anyway)",
+            f"use --dt {dt_suggested:.6g} or smaller{alternative} (or --unsafe to run anyway)",
         )

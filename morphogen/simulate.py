@@ -27,7 +27,7 @@ from morphogen.errors import BlowUpError, DivergenceError, MorphogenError, Morph
 from morphogen.models.model import Array, Model, Params
 from morphogen.progress import ProgressBar
 from morphogen.solve_watch import SolveWatch
-from morphogen.stability import divergence_flags, observed_scale
+from morphogen.stability import IMPLICIT_DIFFUSION, divergence_flags, observed_scale
 from morphogen.steppers import Noise, check_stability, make_step, max_stable_dt
 
 OVERFLOW = 1e15
@@ -394,7 +394,17 @@ class _Watch:
         except MorphogenError:
             limit = float("inf")
         suggested = limit if limit < self.dt else 0.5 * self.dt
-        return DivergenceError(step, names, t, self.why, suggested)
+        alternative = ""
+        if self.scheme in IMPLICIT_DIFFUSION:
+            # the limit of these schemes comes from the reaction at the ground state; a reaction
+            # that grows stiff along the run (a^2/h as h decays) can need an explicit step
+            try:
+                explicit = max_stable_dt(self.model, self.domain, self.p, "euler")
+            except MorphogenError:
+                explicit = float("inf")
+            if explicit < suggested:
+                alternative = f", or --scheme euler with --dt {explicit:.6g} (its limit)"
+        return DivergenceError(step, names, t, self.why, suggested, alternative)
 
 
 class _Snapshots:

@@ -106,3 +106,26 @@ def test_values_far_outside_the_starting_range_are_stopped():
     with pytest.raises(DivergenceError, match="orders of magnitude") as info:
         simulate(model, Grid((8, 8)), u0, {"r": 0.05}, steps=4000, dt=0.1)
     assert 1800 <= info.value.step <= 2100
+
+
+def test_an_implicit_run_whose_reaction_stiffens_is_stopped_and_offered_the_explicit_scheme():
+    # u' = -3 u^3 + D lap u: the Jacobian at the ground state u* = 0 is 0, so imex reports no
+    # limit, but at u = 1 the explicit reaction step of dt = 1 overshoots (1 -> -2 -> 22 -> ...)
+    model = Model(
+        name="cubic", species=("u",), params={"c": 3.0, "D": 2.0},
+        reaction=lambda u, p, c: -p["c"] * u**3, diffusion=lambda p, c: (p["D"],),
+        ground=lambda p: (0.0,),
+    )
+    grid, p = Grid((8, 8)), {"c": 3.0, "D": 2.0}
+    assert max_stable_dt(model, grid, p, "imex") == float("inf")
+    with pytest.raises(DivergenceError) as info:
+        simulate(model, grid, np.ones((1, 8, 8)), p, steps=50, dt=1.0, scheme="imex", every=1)
+    euler = max_stable_dt(model, grid, p, "euler")  # 0.9 * dx^2 / (4 D) = 0.1125
+    assert info.value.step <= 4 and info.value.dt_suggested == 0.5
+    assert f"or --scheme euler with --dt {euler:.6g} (its limit)" in str(info.value)
+    assert euler == pytest.approx(0.1125)
+    # where the explicit limit is above the suggested step, it is not offered
+    with pytest.raises(DivergenceError) as info:
+        simulate(model, grid, np.ones((1, 8, 8)), {**p, "D": 0.1}, steps=50, dt=1.0,
+                 scheme="imex", every=1)
+    assert "--scheme euler" not in str(info.value)
