@@ -10,6 +10,7 @@ from core_models import pure_diffusion
 
 from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
+from morphogen.etd import phi_coefficients
 from morphogen.imex import amplification
 from morphogen.models.equations import load_model
 from morphogen.models.model import Model
@@ -142,6 +143,26 @@ def test_etdrk4_integrates_pure_diffusion_exactly(boundary):
     sol = simulate(pure_diffusion(d=0.7), grid, f[None], {"D": 0.7}, steps=4, dt=0.3,
                    scheme="etdrk4")
     np.testing.assert_allclose(sol.state[0], np.exp(4 * 0.3 * 0.7 * lam) * f, atol=2e-6)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_etdrk4_coefficients_match_their_closed_forms_and_limits(dtype):
+    """Cox-Matthews' ``Q, f1, f2, f3`` by the contour mean against the closed forms in float64
+    where they do not cancel (``|z| >= 0.5``), and against their limits ``h/2, h/6, h/6, h/6``
+    at ``z -> 0``, where the closed forms lose every digit."""
+    z = np.array([-1e-12, -0.5, -3.0, -40.0])
+    h = 0.3
+    with jax.enable_x64(dtype == np.float64):
+        got = [np.asarray(c, np.float64)
+               for c in phi_coefficients(jnp.asarray(z, dtype), jnp.asarray(h, dtype))]
+    e = np.exp(z[1:])
+    zz = z[1:]
+    closed = [(np.exp(zz / 2) - 1) / zz, (-4 - zz + e * (4 - 3 * zz + zz**2)) / zz**3,
+              (2 + zz + e * (zz - 2)) / zz**3, (-4 - 3 * zz - zz**2 + e * (4 - zz)) / zz**3]
+    rtol = 2e-6 if dtype == np.float32 else 1e-12
+    for c, want, limit in zip(got, closed, (0.5, 1 / 6, 1 / 6, 1 / 6), strict=True):
+        np.testing.assert_allclose(c[1:], h * want, rtol=rtol)
+        assert c[0] == pytest.approx(h * limit, rel=rtol)
 
 
 def test_etdrk4_is_fourth_order():
