@@ -48,7 +48,7 @@ from morphogen.search.networks.genome import (  # noqa: E402
 from morphogen.search.networks.operators import Operators  # noqa: E402
 
 HERE = Path(__file__).parent
-RUNS = 5
+RUNS = 10
 BUDGET = {"population": 20, "generations": 16}
 EVAL = Evaluation(size=24, dt=0.5, t_start=800.0, interval=200.0, rounds=2)
 
