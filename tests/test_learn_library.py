@@ -93,3 +93,27 @@ def test_the_dots_rule_keeps_its_texture_statistics_from_2000_to_5000_steps():
     (f2, n2, a2), (f5, n5, a5) = stats(u2), stats(u5)
     assert 0.1 < f2 < 0.3 and n2 >= 3
     assert abs(f5 - f2) < 0.03 and abs(n5 - n2) <= 1 and abs(a5 / a2 - 1) < 0.2
+
+
+def test_training_into_a_folder_that_cannot_be_made_fails_before_training(tmp_path):
+    from morphogen.learn.library import library_config, train_rule
+
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    with pytest.raises(MorphogenError, match="cannot write rules to .*file/rules"):
+        train_rule("dots", None, library_config("dots"), blocker / "rules")
+
+
+def test_training_creates_the_folder_it_writes_the_rules_into(tmp_path, monkeypatch):
+    from morphogen.learn import library
+
+    made = []
+
+    def stop(*args, **kwargs):
+        made.append((tmp_path / "new" / "rules").is_dir())
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(library, "synthetic_texture", stop)
+    with pytest.raises(KeyboardInterrupt):
+        library.train_rule("dots", None, library.library_config("dots"), tmp_path / "new" / "rules")
+    assert made == [True]

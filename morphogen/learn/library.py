@@ -90,6 +90,10 @@ def train_rule(name: str, runs: Path | None, config: TrainConfig, ship: Path | N
     from morphogen.models.neural_library import FOLDER
 
     ship = FOLDER if ship is None else Path(ship)
+    try:  # before training, so that a folder that cannot be made fails in a second, not hours
+        ship.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise MorphogenError(f"cannot write rules to {ship}: {exc.strerror}") from None
     target = synthetic_texture(name, TARGET_SIZE)
     load_before = os.getloadavg()[0]
     start = time.perf_counter()
