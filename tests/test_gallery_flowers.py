@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from morphogen.cli.gallery_cmd import EXAMPLES, find_flowers
+from morphogen.case_studies import EXAMPLES, find_flowers
 from morphogen.cli.main import main
 
 _TINY = """# A tiny petal (Ringham et al. 2021, §4.2, used only by the tests)

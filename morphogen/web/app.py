@@ -22,7 +22,7 @@ from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 
-from morphogen.cli.gallery_cmd import EXAMPLES
+from morphogen.case_studies import EXAMPLES
 from morphogen.errors import MorphogenError
 from morphogen.web import (
     atlas_routes,

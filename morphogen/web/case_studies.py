@@ -2,7 +2,7 @@
 command line runs them.
 
 ``GET /api/mesh/cases`` lists the pipelines ``morphogen gallery flowers`` finds
-(:func:`morphogen.cli.gallery_cmd.find_flowers`: ``examples/flowers/*.toml`` and the two older
+(:func:`morphogen.case_studies.find_flowers`: ``examples/flowers/*.toml`` and the two older
 mesh pipelines) with their names and §4 sections. ``POST /api/mesh/cases`` ``{"name"}`` reads the
 file (:func:`morphogen.pipeline.load_pipeline`: a bad file is refused at once) and queues a job
 that runs it with :func:`morphogen.pipeline.run_pipeline` into a temporary directory, the same
@@ -40,7 +40,7 @@ router = APIRouter(prefix="/api/mesh/cases")
 
 
 def _flowers(request: Request) -> list:
-    from morphogen.cli.gallery_cmd import find_flowers
+    from morphogen.case_studies import find_flowers
 
     return find_flowers(request.app.state.examples)
 
