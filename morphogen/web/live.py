@@ -3,7 +3,8 @@
 A :class:`LiveSim` holds a state ``u`` of shape ``(S, h, w)`` on a periodic (or no-flux) grid
 and advances it by ``steps`` steps per frame of one of the per-step schemes of
 :mod:`morphogen.steppers` (:data:`LIVE_SCHEMES`: explicit Euler, RK4, IMEX, ETDRK4; see
-docs/schemes.md) with the jitted :func:`morphogen.simulate.integrate`.
+docs/schemes.md) with the jitted :func:`morphogen.simulate.integrate`, compiled once per model and
+grid and shared by the tabs (:mod:`morphogen.web.engines`).
 Parameters, ``dt``, the species shown and the colour scale are *runtime* arguments of the compiled
 program, so moving a slider never recompiles; only the number of steps per frame is static, and it
 is taken from :data:`STEP_CHOICES` so each value compiles once per model and grid.
@@ -17,23 +18,21 @@ from __future__ import annotations
 
 import threading
 import time
-from collections import OrderedDict
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
 from morphogen.initial import make_initial
 from morphogen.models.model import Model
-from morphogen.simulate import OVERFLOW, integrate
-from morphogen.steppers import make_step, max_stable_dt
-from morphogen.web.brush import brush_values, painter
+from morphogen.steppers import max_stable_dt
+from morphogen.web.brush import brush_values
 from morphogen.web.catalog import check_params, resolve_model
+from morphogen.web.engines import Engine, engine_for, pixels
 from morphogen.web.image_input import image_field
 from morphogen.web.limits import Limits, choice, integer, number
 from morphogen.web.recording import Recorder
@@ -54,80 +53,6 @@ FRAMES_TO_PATTERN = 200
 frames, i.e. about ten seconds at 20 frames/s."""
 RANGE_EASING = 0.2
 """Fraction of the way the colour scale moves toward the field's range each frame."""
-
-
-@dataclass
-class Engine:
-    """Compiled programs for one model on one grid, shared by every tab that shows them.
-
-    Attributes:
-        model, grid: what is simulated; scheme: the time stepper's name.
-        step: ``step(u, p, t, dt, key) -> u`` from :func:`morphogen.steppers.make_step`.
-        advance: per steps-per-frame value, the jitted frame program (see :meth:`program`).
-        paint: jitted ``paint(u, cx, cy, r, values) -> u``.
-    """
-
-    model: Model
-    grid: Grid
-    step: Callable
-    scheme: str = "euler"
-    advance: dict[int, Callable] = field(default_factory=dict)
-    paint: Callable | None = None
-    lock: threading.Lock = field(default_factory=threading.Lock)
-
-    def program(self, n: int) -> Callable:
-        """``run(u, p, t, dt, key, show, lo, hi) -> (u, t, key, img, fmin, fmax, ok)``.
-
-        ``u`` ``(S, n, n)``; ``img`` ``(n, n)`` uint8 of species ``show``; ``ok`` is false when
-        any value is NaN, infinite or beyond the overflow bound.
-        """
-        with self.lock:
-            if n not in self.advance:
-                step = self.step
-
-                def run(u, p, t, dt, key, show, lo, hi):
-                    u, t, key = integrate(step, u, p, steps=n, dt=dt, t0=t, key=key)
-                    f = jnp.take(u, show, axis=0)
-                    ok = jnp.all(jnp.isfinite(u) & (jnp.abs(u) < OVERFLOW))
-                    img = _pixels(f, lo, hi)
-                    return u, t, key, img, jnp.min(f), jnp.max(f), ok
-
-                self.advance[n] = jax.jit(run)
-            if self.paint is None:
-                self.paint = jax.jit(painter(self.grid))
-            return self.advance[n]
-
-
-def _pixels(f: Any, lo: Any, hi: Any) -> Any:
-    """Grey levels 0..255 of ``f`` scaled from ``[lo, hi]`` (all 0 when ``hi <= lo``); the one
-    mapping of both the jitted frame and the still picture."""
-    scale = jnp.where(hi > lo, 255.0 / jnp.maximum(hi - lo, 1e-30), 0.0)
-    return jnp.clip(jnp.round((f - lo) * scale), 0, 255).astype(jnp.uint8)
-
-
-_ENGINES: OrderedDict[tuple, Engine] = OrderedDict()
-_ENGINES_LOCK = threading.Lock()
-_ENGINES_SIZE = 12
-
-
-def engine_for(model: Model, key: str, shape: tuple[int, int], boundary: str,
-               scheme: str = "euler") -> Engine:
-    """The shared :class:`Engine` of a model (by cache key) on an ``(h, w)`` grid with a time
-    stepper of :data:`LIVE_SCHEMES` (one the model or boundary cannot take is refused by
-    :func:`morphogen.steppers.make_step` with its one-line reason)."""
-    ident = (key, tuple(shape), boundary, scheme)
-    with _ENGINES_LOCK:
-        if ident in _ENGINES:
-            _ENGINES.move_to_end(ident)
-            return _ENGINES[ident]
-    grid = Grid(tuple(shape), boundary=boundary)
-    step = make_step(model, grid, scheme=scheme, clamp=model.clamp)
-    eng = Engine(model=model, grid=grid, step=step, scheme=scheme)
-    with _ENGINES_LOCK:
-        _ENGINES[ident] = eng
-        while len(_ENGINES) > _ENGINES_SIZE:
-            _ENGINES.popitem(last=False)
-    return eng
 
 
 @dataclass
@@ -170,6 +95,7 @@ class LiveSim:
         self.undo_stack: list[Any] = []
         self.recorder = Recorder()
         self.maps: dict[str, tuple[np.ndarray, dict[str, Any]]] = {}
+        self.limit: float | None = None  # the dt limit of the current settings, once computed
 
     # -- configuration --------------------------------------------------------------------
     def configure(self, spec: Mapping[str, Any], size: int = 256, boundary: str = "periodic",
@@ -198,7 +124,7 @@ class LiveSim:
             self.engine, self.size, self.height, self.boundary = eng, size, height, boundary
             self.scheme = scheme
             self.fixed = None
-            self.values, self.maps = values, {}
+            self.values, self.maps, self.limit = values, {}, None
             self.show = model.species.index(model.display_species)
             self.dt = self.chosen_dt = self._default_dt()
             self.steps_per_frame = _default_steps(model, self.dt)
@@ -210,7 +136,7 @@ class LiveSim:
         with self.lock:
             self._touch()
             new = {**self.values, **check_params(values, self.engine.model)}
-            self.values = new
+            self.values, self.limit = new, None
             return self._fit_dt()
 
     def set_dt(self, dt: Any) -> list[str]:
@@ -237,7 +163,7 @@ class LiveSim:
                 p = {**self.values, **{k: f for k, (f, _) in maps.items()}}
                 jax.eval_shape(self.engine.step, self.u, p, self.t, jnp.float32(self.dt),
                                self.key)
-            self.maps = maps
+            self.maps, self.limit = maps, None
             return self._fit_dt()
 
     def set_view(self, *, species: str | None = None, steps_per_frame: Any = None,
@@ -370,7 +296,7 @@ class LiveSim:
             self._scale()
             self._follow(float(f.min()), float(f.max()))  # a stroke beyond the range shows
             lo, hi = np.float32(self.lo), np.float32(self.hi)
-            self.pixels = np.asarray(_pixels(f, lo, hi))
+            self.pixels = np.asarray(pixels(f, lo, hi))
             self.frames += 1
             return Frame(self.pixels, self.frames, float(self.t), self.total_steps,
                          float(self.lo), float(self.hi), self.compute_s)
@@ -456,7 +382,12 @@ class LiveSim:
         return {**self.values, **{k: f for k, (f, _) in self.maps.items()}}
 
     def _dt_max(self) -> float:
-        return max_stable_dt(self.engine.model, self.engine.grid, self._params(), self.scheme)
+        """The scheme's ``dt`` limit for the current parameters and maps, computed once per
+        change of them (it linearises about the ground state: :mod:`morphogen.web.engines`)."""
+        if self.limit is None:
+            self.limit = max_stable_dt(self.engine.model, self.engine.grid, self._params(),
+                                       self.scheme)
+        return self.limit
 
     def _default_dt(self) -> float:
         """The model's suggested ``dt``, lowered below the explicit stability limit if needed."""

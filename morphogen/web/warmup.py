@@ -5,8 +5,10 @@ grid, scheme and steps-per-frame value; 3-6 s on 2 busy cores) before its first 
 the server runs, in one background thread, exactly what a page's first frame of each library
 model runs: a :class:`~morphogen.web.live.LiveSim` configured with the model's defaults on the
 page's default 256² periodic grid, and one frame. The compiled programs land in the shared engine
-cache (:func:`morphogen.web.live.engine_for`), so a later switch to the model finds them. Other
-grids, schemes or boundaries still compile on first use.
+cache (:func:`morphogen.web.engines.engine_for`), so a later switch to the model finds them, and
+so does the ground state solved for the model's default parameters. Other grids, schemes or
+boundaries still compile on first use. When it is done the server prints one line
+(``warm-up: ...``) with the seconds per model.
 """
 
 from __future__ import annotations
@@ -40,11 +42,25 @@ def warm_library(limits: Limits, names: list[str], stop: threading.Event,
     return took
 
 
+def warm_and_report(limits: Limits, names: list[str], stop: threading.Event) -> str | None:
+    """:func:`warm_library`, then print (and return) one line with the total and each model's
+    seconds; nothing when ``stop`` cut it short."""
+    start = time.perf_counter()
+    took = warm_library(limits, names, stop)
+    if stop.is_set():
+        return None
+    each = ", ".join(f"{name} {s:.1f} s" for name, s in took.items())
+    line = (f"warm-up: the live views of {len(took)} library models compiled in "
+            f"{time.perf_counter() - start:.1f} s ({each})")
+    print(line, flush=True)
+    return line
+
+
 def start_warm_up(limits: Limits, stop: threading.Event) -> threading.Thread:
-    """Run :func:`warm_library` over the library in a daemon thread."""
+    """Run :func:`warm_and_report` over the library in a daemon thread."""
     from morphogen.models.library import LIBRARY
 
-    thread = threading.Thread(target=warm_library, args=(limits, list(LIBRARY), stop),
+    thread = threading.Thread(target=warm_and_report, args=(limits, list(LIBRARY), stop),
                               name="morphogen-warm-up", daemon=True)
     thread.start()
     return thread
