@@ -92,7 +92,7 @@ const SCENARIOS = {
     const serverMs = await page.evaluate(() => window.morphogenExplore.last.ms);
     return { fps, change: diff(first, second), size: state.size, model: state.model,
       steps_per_frame: state.steps_per_frame, server_ms: serverMs,
-      measured: process.env.MORPHOGEN_E2E_MEASURE ? await measure(page) : null };
+      measured: process.env.MORPHOGEN_E2E_MEASURE ? await measure(page, out) : null };
   },
 
   async slider(page) {

@@ -2,6 +2,7 @@
 // address as state, the value readout and colour bar, undo of strokes, scheme and rectangular
 // grids, recording, resuming and deleting runs, and the speed figures of docs/web.md.
 
+import { readFileSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 
 const x = (page, f) => page.evaluate(f);
@@ -88,48 +89,94 @@ export async function rectangleImexRecording(page, out) {
     scheme: await x(page, () => window.morphogenExplore.state.scheme) };
 }
 
-// frames per second over `ms`, counted in the page
-async function fps(page, ms = 2500) {
-  const f0 = await frames(page);
-  const t0 = Date.now();
-  await page.waitForTimeout(ms);
-  return ((await frames(page)) - f0) / ((Date.now() - t0) / 1000);
+// the machine's 1-minute load average (Linux), recorded next to each figure
+function load() {
+  try { return Number(readFileSync('/proc/loadavg', 'utf8').split(' ')[0]); } catch { return null; }
 }
 
-// docs/web.md's figures: frames/s at 256² and 128² (32 steps per frame) and the time from
-// choosing a model in the menu to its first frame, the first time and again
-export async function measure(page) {
-  const out = {};
-  await page.selectOption('#ex-steps', '32');
-  await page.waitForFunction(() => window.morphogenExplore.state.steps_per_frame === 32);
-  await nextFrame(page);
-  out.fps256 = await fps(page);
-  await page.selectOption('#ex-size', '128');
-  await page.waitForFunction(() => window.morphogenExplore.state.size === 128 && window.morphogenExplore.frames >= 2, null, { timeout: 60000 });
-  await page.selectOption('#ex-steps', '32');
-  await page.waitForFunction(() => window.morphogenExplore.state.steps_per_frame === 32);
-  await nextFrame(page);
-  out.fps128 = await fps(page);
-  const switchTo = async (name) => {
-    const t0 = Date.now();
-    await page.selectOption('#ex-model', name);
-    await page.waitForFunction((n) => window.morphogenExplore.state?.model === n && window.morphogenExplore.last
-      && window.morphogenExplore.frames >= 1, name, { timeout: 120000 });
-    const f = await frames(page);
-    await page.waitForFunction((s) => window.morphogenExplore.frames > s, f, { timeout: 120000 });
-    return (Date.now() - t0) / 1000;
-  };
-  // at the page's default 256² grid, which the server compiles for every library model at start
-  await page.selectOption('#ex-size', '256');
-  await page.waitForFunction(() => window.morphogenExplore.state.size === 256 && window.morphogenExplore.frames >= 2, null, { timeout: 60000 });
-  out.switchDefault = await switchTo('schnakenberg');
-  out.switchDefaultSecond = await switchTo('gierer-meinhardt');
-  await page.selectOption('#ex-size', '128');
-  await page.waitForFunction(() => window.morphogenExplore.state.size === 128 && window.morphogenExplore.frames >= 2, null, { timeout: 60000 });
-  out.switchFirst = await switchTo('brusselator');
-  out.switchBack = await switchTo('gray-scott');
-  out.switchAgain = await switchTo('brusselator');
-  return out;
+// frames per second over `ms`, counted in the page, and the server's mean ms per frame
+async function fps(page, ms = 3000) {
+  const f0 = await frames(page);
+  const t0 = Date.now();
+  const server = [];
+  while (Date.now() - t0 < ms) {
+    await page.waitForTimeout(250);
+    server.push(await x(page, () => window.morphogenExplore.last.ms));
+  }
+  const rate = ((await frames(page)) - f0) / ((Date.now() - t0) / 1000);
+  return { fps: rate, serverMs: server.reduce((a, b) => a + b, 0) / server.length, load: load() };
+}
+
+// a fresh tab opening Explore: ms from the start of its navigation to the page's load event
+// and to its first frame drawn
+async function firstFrame(page, base) {
+  const tab = await page.context().newPage();
+  await tab.goto(`${base}#explore`);
+  await tab.waitForFunction(() => window.morphogenExplore?.firstFrameAt !== undefined, null, { timeout: 120000 });
+  const t = await tab.evaluate(() => ({ frame: window.morphogenExplore.firstFrameAt,
+    loaded: performance.getEntriesByType('navigation')[0].loadEventEnd }));
+  await tab.close();
+  return { ...t, afterLoad: t.frame - t.loaded, load: load() };
+}
+
+async function setSize(page, size) {
+  await page.selectOption('#ex-size', String(size));
+  await page.waitForFunction((n) => window.morphogenExplore.state.size === n && window.morphogenExplore.frames >= 2, size, { timeout: 120000 });
+}
+
+// steps per frame changed: seconds to the first frame of the new program (it compiles once per
+// model, grid and value), then the frame rate
+async function rateAt(page, steps) {
+  const t0 = Date.now();
+  await page.selectOption('#ex-steps', String(steps));
+  await page.waitForFunction((n) => window.morphogenExplore.state.steps_per_frame === n, steps);
+  await nextFrame(page, 120000); // perhaps the frame asked for before the change
+  await nextFrame(page, 120000);
+  const firstS = (Date.now() - t0) / 1000;
+  return { steps, firstS, ...(await fps(page)) };
+}
+
+// menu -> the first frame of the new model (a frame after the one the switch shows)
+async function switchTo(page, name) {
+  const t0 = Date.now();
+  await page.selectOption('#ex-model', name);
+  await page.waitForFunction((n) => window.morphogenExplore.state?.model === n && window.morphogenExplore.last
+    && window.morphogenExplore.frames >= 1, name, { timeout: 120000 });
+  const f = await frames(page);
+  await page.waitForFunction((s) => window.morphogenExplore.frames > s, f, { timeout: 120000 });
+  return { s: (Date.now() - t0) / 1000, load: load() };
+}
+
+// docs/web.md's figures, on a server that has finished its warm-up: time to the first frame of
+// a freshly opened page (three tabs), frames/s of Gray-Scott (Euler) at 256² and 512² for 1, 32
+// and 128 steps per frame, and model switches on the warmed 256² view (first, back, again) and
+// on a 128² grid the warm-up did not compile
+export async function measure(page, out) {
+  const base = page.url().split('#')[0];
+  const res = { loadStart: load(), firstFrame: [], rates: {}, switches: {} };
+  for (let i = 0; i < 3; i += 1) res.firstFrame.push(await firstFrame(page, base));
+  for (const size of [256, 512]) {
+    await setSize(page, size);
+    res.rates[size] = [];
+    for (const steps of [1, 32, 128]) res.rates[size].push(await rateAt(page, steps));
+  }
+  await setSize(page, 256);
+  const sw = res.switches;
+  sw.warm = [['fitzhugh-nagumo', 'first'], ['gray-scott', 'back'], ['fitzhugh-nagumo', 'again'],
+    ['schnakenberg', 'first'], ['activator-inhibitor', 'first']];
+  for (const entry of sw.warm) {
+    entry.push(await switchTo(page, entry[0]));
+    if (entry[0] === 'fitzhugh-nagumo') { // its labyrinths after 40 frames
+      await page.waitForFunction((f) => window.morphogenExplore.frames >= f, (await frames(page)) + 40, { timeout: 120000 });
+      await page.screenshot({ path: join(out, 'explore-fhn.png') });
+    }
+  }
+  await switchTo(page, 'gray-scott');
+  await setSize(page, 128);
+  sw.cold = [['brusselator', 'first'], ['gray-scott', 'back'], ['brusselator', 'again']];
+  for (const entry of sw.cold) entry.push(await switchTo(page, entry[0]));
+  res.loadEnd = load();
+  return res;
 }
 
 // Runs page: resume the stopped run on the Evolve page, stop it, then delete it after the
@@ -155,7 +202,6 @@ export async function resumeAndDelete(page, base, run) {
 
 // the page opens a run.json (here the one it saved, with F and the colour map changed)
 export async function openRunFile(page, out) {
-  const { readFileSync, writeFileSync } = await import('node:fs');
   const data = JSON.parse(readFileSync(join(out, 'run.json'), 'utf8'));
   data.config.params.F = 0.05;
   data.config.cmap = 'magma';

@@ -450,6 +450,7 @@ export class Explore {
     this.redraw();
     this.tools.onFrame(this.last);
     this.frames += 1;
+    this.firstFrameAt ??= performance.now(); // ms after the page's navigation began
     const now = performance.now();
     this.fpsWindow.push(now);
     while (this.fpsWindow.length && now - this.fpsWindow[0] > 2000) this.fpsWindow.shift();
