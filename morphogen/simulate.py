@@ -41,15 +41,20 @@ def integrate(
 ) -> tuple[Array, Array, Array]:
     """Apply ``step`` ``steps`` times with ``lax.scan``; returns ``(u, t, key)``.
 
+    A step with ``invariants(params, t0, dt)`` (ETDRK4's exponentials and φ-coefficients) has
+    them computed once, before the loop, and passed to every step as ``aux``.
     Pure and differentiable: ``jax.grad`` of a function of the final state with respect to
     ``params`` (or ``u0``) works through it.
     """
     dt = jnp.asarray(dt, u0.dtype)
+    invariants = getattr(step, "invariants", None)
+    aux = None if invariants is None else invariants(params, jnp.asarray(t0, u0.dtype), dt)
 
     def body(carry, _):
         u, t, k = carry
         t_next, k, sub = _tick(t, k, dt)
-        return (step(u, params, t, dt, sub), t_next, k), None
+        new = step(u, params, t, dt, sub) if aux is None else step(u, params, t, dt, sub, aux)
+        return (new, t_next, k), None
 
     (u, t, key), _ = jax.lax.scan(body, (u0, jnp.asarray(t0, u0.dtype), key), None, length=steps)
     return u, t, key

@@ -123,11 +123,12 @@ def make_step(
     flux_noise = domain.diffusion_noise if getattr(domain, "stochastic", False) else None
     coords = {k: jnp.asarray(v) for k, v in domain.coords.items()}
 
-    def step(u: Array, p: Params, t: Array, dt: Array, key: Array) -> Array:
+    def step(u: Array, p: Params, t: Array, dt: Array, key: Array, aux: Any = None) -> Array:
         if flux_noise is not None:
             key, sub = jax.random.split(key)
             du = flux_noise(u, model.diffusion(p, {**coords, "t": t}), bcs, dt, sub)
-        u = advance(domain.hold(u, bcs), p, t, dt)
+        held = domain.hold(u, bcs)
+        u = advance(held, p, t, dt) if aux is None else advance(held, p, t, dt, aux)
         if noise is not None and noise.amplitude > 0:
             mask = noise_mask.reshape((-1,) + (1,) * (u.ndim - 1))
             xi = jax.random.normal(key, u.shape, u.dtype) * mask
@@ -139,6 +140,8 @@ def make_step(
             u = jnp.clip(u, clamp[0], clamp[1])
         return domain.hold(u, bcs)
 
+    if hasattr(advance, "invariants"):
+        step.invariants = advance.invariants
     return step
 
 

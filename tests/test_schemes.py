@@ -183,3 +183,30 @@ def test_etdrk4_is_fourth_order():
             errors.append(np.abs(sol.state[0] - exact).max())
     slope = np.polyfit(np.log(dts), np.log(errors), 1)[0]
     assert slope == pytest.approx(4, abs=0.4)
+
+
+def test_etdrk4_coefficients_computed_once_per_run_give_the_same_steps():
+    """``integrate`` computes ETDRK4's exponentials and φ-coefficients once, before its loop
+    (``step.invariants``); the steps equal those of a step that computes them itself."""
+    model, grid = load_model("examples/schnakenberg.toml"), Grid((24, 24))
+    p = {k: jnp.float32(v) for k, v in model.parameters().items()}
+    u0 = jnp.asarray(1.0 + 0.1 * np.random.default_rng(3).standard_normal((2, 24, 24)),
+                     jnp.float32)
+    step = make_step(model, grid, scheme="etdrk4")
+    assert hasattr(step, "invariants")
+    key = jax.random.PRNGKey(0)
+    hoisted = integrate(step, u0, p, steps=30, dt=0.05, key=key)[0]
+    inline = integrate(lambda u, q, t, dt, k: step(u, q, t, dt, k), u0, p, steps=30, dt=0.05,
+                       key=key)[0]
+    np.testing.assert_allclose(np.asarray(hoisted), np.asarray(inline), rtol=1e-5, atol=1e-6)
+
+
+def test_etdrk4_refuses_diffusion_that_changes_with_time():
+    model = Model(
+        name="warming", species=("u",), params={"D": 0.5},
+        reaction=lambda u, p, c: -u, diffusion=lambda p, c: (p["D"] * (1.0 + 0.01 * c["t"]),),
+        ground=lambda p: (0.0,),
+    )
+    with pytest.raises(MorphogenError, match="diffusion of u changes with t; use imex"):
+        make_step(model, Grid((8, 8)), scheme="etdrk4")
+    make_step(model, Grid((8, 8)), scheme="imex")
