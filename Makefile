@@ -6,7 +6,7 @@ LOCK := requirements.lock
 # Installs take the exact versions the suite last passed with; `make upgrade` moves them on.
 CONSTRAINTS ?= -c $(LOCK)
 
-.PHONY: demo test bench lint clean serve lock upgrade fuzz flowers
+.PHONY: demo test bench bench-peers lint clean serve lock upgrade fuzz flowers
 
 $(STAMP): pyproject.toml $(LOCK)
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -45,6 +45,15 @@ serve: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m bench.run
+
+# Against Exponax and py-pde: the peers live in their own environment, .venv-bench (the lock
+# plus bench/peers.txt), never in the project's dependencies.
+bench-peers:
+	test -x .venv-bench/bin/python || $(PY) -m venv .venv-bench
+	.venv-bench/bin/pip install --quiet "pip==26.3"
+	.venv-bench/bin/pip install --quiet -c $(LOCK) -e .
+	.venv-bench/bin/pip install --quiet -c $(LOCK) -r bench/peers.txt
+	.venv-bench/bin/python -m bench.bench_peers
 
 fuzz: $(STAMP)
 	$(BIN)/python -m fuzz.run --seconds $(or $(SECONDS),600)
