@@ -8,6 +8,7 @@ import { join } from 'node:path';
 import { chromium } from 'playwright-core';
 import { measure, openRunFile, readoutAndUndo, rectangleImexRecording, resumeAndDelete, urlState } from './tools.mjs';
 import * as features from './features.mjs';
+import * as mapElites from './map_elites.mjs';
 
 const [scenario, base, out] = process.argv.slice(2);
 const ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
@@ -453,53 +454,8 @@ SCENARIOS.layout = async (page) => {
   return { evolveDesktop, width, canvasWidth: canvas.width, stacked: controls.y + controls.height <= canvas.y + 1 };
 };
 
-// a MAP-Elites run (made by the test with the CLI) on the Runs page: map, plot, elites
-SCENARIOS.mapelites = async (page) => {
-  const runs = await (await page.request.get(new URL('api/runs', base).href)).json();
-  const run = runs.runs.find((r) => r.strategy === 'map-elites').id;
-  await page.goto(`${base}#runs`);
-  await page.click(`tr[data-run="${run}"]`);
-  await page.waitForSelector('#runs-elites img');
-  await page.waitForTimeout(800);
-  await page.screenshot({ path: join(out, 'runs-map-elites.png'), fullPage: true });
-  const shown = await page.evaluate(() => ({
-    heading: document.querySelector('#runs-elites h4').textContent,
-    images: [...document.querySelectorAll('#runs-elites img')].filter((i) => i.complete && i.naturalWidth > 0).length,
-    tiles: document.querySelectorAll('#runs-elites .tile').length,
-  }));
-  const detail = await (await page.request.get(new URL(`api/runs/${run}`, base).href)).json();
-  await page.click('#runs-elites .tile >> nth=0');
-  await page.waitForFunction((f) => !document.getElementById('page-explore').hidden
-    && window.morphogenExplore?.state?.params?.F === f && window.morphogenExplore.frames >= 2,
-  detail.map_elites.elites[0].params.F, { timeout: 60000 });
-  const params = await page.evaluate(() => window.morphogenExplore.state.params);
-  return { ...shown, elites: detail.map_elites.elites.length, first: detail.map_elites.elites[0].params, params };
-};
-
-// a MAP-Elites run started on the Evolve page shows its elite map and elites when done
-SCENARIOS.evolvemap = async (page) => {
-  await page.goto(`${base}#evolve`);
-  await page.waitForFunction(() => Number(document.getElementById('ev-population')?.value) > 0);
-  await page.selectOption('#ev-fitness', 'dirichlet');
-  await page.selectOption('#ev-strategy', 'map-elites');
-  await page.fill('#ev-population', '4');
-  await page.fill('#ev-generations', '2');
-  await page.fill('#ev-size', '16');
-  await page.fill('#ev-steps', '60');
-  await page.click('#ev-start');
-  await page.waitForSelector('#ev-elites:not([hidden]) .tile', { timeout: 120000 });
-  await page.waitForTimeout(500);
-  await page.screenshot({ path: join(out, 'evolve-map-elites.png'), fullPage: true });
-  const tiles = await page.locator('#ev-elites .tile').count();
-  const run = await page.evaluate(() => window.morphogenEvolve.status.run);
-  const detail = await (await page.request.get(new URL(`api/runs/${run}`, base).href)).json();
-  await page.click('#ev-elites .tile >> nth=0');
-  await page.waitForFunction((f) => !document.getElementById('page-explore').hidden
-    && window.morphogenExplore?.state?.params?.F === f && window.morphogenExplore.frames >= 2,
-  detail.map_elites.elites[0].params.F, { timeout: 60000 });
-  const params = await page.evaluate(() => window.morphogenExplore.state.params);
-  return { tiles, elites: detail.map_elites.elites.length, first: detail.map_elites.elites[0].params, params };
-};
+SCENARIOS.mapelites = (page) => mapElites.mapElitesOnRuns(page, base, out);
+SCENARIOS.evolvemap = (page) => mapElites.mapElitesOnEvolve(page, base, out);
 
 // one case study for docs/web.md's picture (MORPHOGEN_E2E_CASE, a flower of the server's examples)
 SCENARIOS.casestudy = async (page) => {
