@@ -8,7 +8,17 @@ Reported for the ``cpu`` preset (n = 12, h = 64, 64 x 64, batch 4, 32-64 steps p
 - ``numpy_cell_steps_per_s``: the reference, a plain NumPy implementation of eq. 1
   (``np.roll`` 9-point Laplacian and two matrix products per step);
 - ``jax_vs_numpy``: forward speed-up over NumPy, and ``train_vs_forward``: how many forward
-  steps one training step costs (backward pass plus recomputation: about 3-5).
+  steps one training step costs (the backward pass, its recomputation and the loss).
+
+``profile``: the parts of one cpu-preset iteration, each compiled on its own and timed in
+interleaved rounds (median and fastest, ms), at a rollout of 48 steps (the mean of 32-64):
+the forward rollout without gradient, the texture loss of the final batch (feature extraction,
+Gram matrices and quantiles) and its gradient, the full ``value_and_grad`` of the objective
+(rollout, loss and the backward pass through the rematerialised rollout), the optimiser update
+and the pool's sampling and write-back; next to whole iterations (random lengths) and the 1-minute
+load average before and after. (XLA's ``cost_analysis`` is no guide here: it counts a loop's
+body once, so it reports 0.06 GFLOP for a forward rollout of 48 steps that does 2.4.) The
+measurement holds ``/tmp/heavy.lock`` (shared machine: one heavy measurement at a time).
 
 On a GPU the ``paper`` preset (n = 32, h = 128, 128 x 128, 32-96 steps) is timed too and
 projected to its 20 000 iterations (the paper: about an hour on an NVIDIA P100).
@@ -16,19 +26,30 @@ projected to its 20 000 iterations (the paper: about an hour on an NVIDIA P100).
 
 from __future__ import annotations
 
+import fcntl
+import os
 import time
+from collections.abc import Callable
 
 import jax
+import jax.numpy as jnp
 import numpy as np
+import optax
 
+from bench.timing import interleaved
 from morphogen.learn.features import make_extractor
 from morphogen.learn.loss import texture_loss
-from morphogen.learn.seeds import seed_batch
+from morphogen.learn.rollout import rollout
+from morphogen.learn.rollout_neural import batch_step, rgb_last, to_last
+from morphogen.learn.seeds import seed_batch, seed_state
 from morphogen.learn.textures import synthetic_texture
 from morphogen.learn.train import (
     TrainConfig,
     init_state,
+    make_objective,
     make_train_step,
+    normalise_gradients,
+    optimizer,
     preset,
     training_grid,
 )
@@ -39,6 +60,9 @@ from morphogen.steppers import batch_params
 TIMED_ITERATIONS = 20
 FORWARD_STEPS = 200
 NUMPY_STEPS = 20
+PROFILE_STEPS = 48
+PROFILE_ROUNDS = 7
+LOCK = "/tmp/heavy.lock"
 
 
 def numpy_neural_step(x: np.ndarray, w: dict, c: np.ndarray) -> np.ndarray:
@@ -68,7 +92,87 @@ def time_training(config: TrainConfig, iterations: int) -> tuple[float, float]:
     return (time.perf_counter() - start) / iterations, float(np.mean(lengths))
 
 
+def profile_parts(config: TrainConfig) -> dict[str, Callable[[], object]]:
+    """Each part of one iteration, jitted on its own, as a callable that runs it once."""
+    loss = texture_loss(synthetic_texture("dots", config.size), make_extractor("random"),
+                        config.n_rot)
+    state = init_state(config)
+    weights = dict(state.weights)
+    weights["W1"] = jnp.asarray(0.05 * np.random.default_rng(0).standard_normal(
+        weights["W1"].shape), jnp.float32)
+    x = state.pool[:config.batch_size]
+    step = batch_step(config.neural, config.size, config.stencil)
+    p = {**weights, "r": 1.0, "d": 1.0}
+
+    def forward(x, n):
+        return rollout(step, to_last(x), p, max_steps=config.max_steps, n_steps=n,
+                       chunk=config.chunk)
+
+    forward_j = jax.jit(forward)
+    final = forward_j(x, PROFILE_STEPS)
+    loss_j = jax.jit(lambda y, loss: jnp.mean(loss(rgb_last(y))))
+    loss_grad_j = jax.jit(jax.value_and_grad(lambda y, loss: jnp.mean(loss(rgb_last(y)))))
+    value_and_grad = jax.jit(jax.value_and_grad(make_objective(config), has_aux=True))
+    grads = value_and_grad(weights, x, PROFILE_STEPS, loss)[1]
+    opt = optimizer(config)
+
+    def update(w, g, s):
+        updates, s = opt.update(normalise_gradients(g), s, w)
+        return optax.apply_updates(w, updates), s
+
+    update_j = jax.jit(update)
+
+    def pool(pool, key, y):
+        """Sampling (batch, fresh seed) and write-back of one iteration."""
+        idx = jax.random.choice(key, config.pool_size, (config.batch_size,), replace=False)
+        batch = pool[idx].at[0].set(seed_state(key, config.channels, (config.size,) * 2))
+        return batch, pool.at[idx].set(y)
+
+    pool_j = jax.jit(pool)
+    train = make_train_step(config)
+    run_state = [init_state(config)]
+
+    def whole():
+        run_state[0], metrics = train(run_state[0], loss)
+        jax.block_until_ready(run_state[0].weights)
+        return metrics
+
+    key = jax.random.PRNGKey(1)
+    parts = {
+        "forward_rollout": lambda: forward_j(x, PROFILE_STEPS),
+        "texture_loss": lambda: loss_j(final, loss),
+        "texture_loss_value_and_grad": lambda: loss_grad_j(final, loss),
+        "value_and_grad": lambda: value_and_grad(weights, x, PROFILE_STEPS, loss),
+        "optimiser_update": lambda: update_j(weights, grads, state.opt_state),
+        "pool_update": lambda: pool_j(state.pool, key, jnp.moveaxis(final, -1, 1)),
+        "iteration": whole,
+    }
+    timed = {k: (lambda f=f: jax.block_until_ready(f())) for k, f in parts.items()}
+    for f in timed.values():
+        f()  # compile
+    return timed
+
+
+def profile(config: TrainConfig, rounds: int = PROFILE_ROUNDS) -> dict:
+    """Interleaved timings of the parts of one iteration (``profile_parts``), in ms."""
+    times, load_before, load_after = interleaved(profile_parts(config), rounds)
+    return {
+        "rollout_steps": PROFILE_STEPS,
+        "rounds": rounds,
+        "median_ms": {k: 1e3 * float(np.median(v)) for k, v in times.items()},
+        "fastest_ms": {k: 1e3 * float(np.min(v)) for k, v in times.items()},
+        "load_average_1min": [load_before[0], load_after[0]],
+    }
+
+
 def run() -> dict:
+    with open(LOCK, "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        return measure()
+
+
+def measure() -> dict:
+    load_before = os.getloadavg()[0]
     config = preset("cpu")
     per_iteration, mean_steps = time_training(config, TIMED_ITERATIONS)
     state = init_state(config)
@@ -106,6 +210,7 @@ def run() -> dict:
         "jax_vs_numpy": forward_rate / numpy_rate,
         "train_vs_forward": forward_rate / train_cell_steps,
         "cpu_preset_minutes": config.iterations * per_iteration / 60.0,
+        "profile": profile(config),
     }
     if jax.default_backend() == "gpu":
         paper = preset("paper", features="random")
@@ -113,4 +218,5 @@ def run() -> dict:
         result["paper_train_iterations_per_s"] = 1.0 / per_paper
         result["paper_projected_hours"] = paper.iterations * per_paper / 3600.0
         result["paper_reference_hours_p100"] = 1.0
+    result["load_average_1min"] = [load_before, os.getloadavg()[0]]
     return result

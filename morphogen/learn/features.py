@@ -66,16 +66,38 @@ def avg_pool2(x: Array) -> Array:
     return x.reshape(b, h2, 2, w2, 2, c).mean(axis=(2, 4))
 
 
+def sortable_bits(x: Array) -> Array:
+    """A signed integer key of each float that orders as the values do: the IEEE 754 bits
+    (``int32`` for float32, ``int64`` for float64) with the magnitude bits of negative numbers
+    flipped, so ``-0.0`` sorts just below ``+0.0``."""
+    itype = jnp.dtype(f"int{8 * x.dtype.itemsize}")
+    bits = jax.lax.bitcast_convert_type(x, itype)
+    return bits ^ ((bits >> (8 * x.dtype.itemsize - 1)) & jnp.iinfo(itype).max)
+
+
 def quantiles(values: Array, q: int) -> Array:
     """Sorted values at ``q`` evenly spaced quantiles: ``(B, P, C)`` -> ``(B, q, C)``.
 
     For two equally weighted samples in 1D, the mean squared difference of their quantile
     functions is the squared 2-Wasserstein (optimal transport) distance, so comparing these
     compares whole value distributions, not just their moments.
+
+    The values are sorted as integer keys (:func:`sortable_bits`): XLA's CPU sort has a fast
+    path for one integer operand and none for floats, whose total-order comparator made
+    ``jnp.sort`` take 80 ms of a 64 x 64 cpu-preset loss; the integer sort takes 15 ms. The
+    result is the entry of ``values`` that holds each picked key (its first occurrence), so
+    values are bit-identical to ``jnp.sort`` and the gradient reaches the same entry. (Only at
+    an exact tie, where a quantile is not differentiable, may it reach another of the tied
+    entries than ``jnp.sort``'s, which picks by position among them.)
     """
     n = values.shape[1]
     pick = ((np.arange(q) + 0.5) / q * n).astype(int)
-    return jnp.sort(values, axis=1)[:, pick]
+    cols = jnp.moveaxis(values, 1, -1)  # (B, C, P)
+    keys = sortable_bits(cols)
+    picked = jax.lax.sort(keys, dimension=keys.ndim - 1)[..., pick]  # (B, C, q)
+    where = jnp.argmax(keys[..., None, :] == picked[..., :, None], axis=-1)
+    out = jnp.take_along_axis(cols, jax.lax.stop_gradient(where), axis=-1)
+    return jnp.moveaxis(out, -1, 1)
 
 
 @dataclass(frozen=True)

@@ -50,8 +50,8 @@ from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
 from morphogen.learn.loss import TextureLoss
 from morphogen.learn.rollout import rollout
+from morphogen.learn.rollout_neural import batch_step, rgb_last, to_first, to_last
 from morphogen.learn.seeds import seed_batch, seed_state
-from morphogen.learn.textures import state_to_rgb
 from morphogen.models.model import Array, Model
 from morphogen.models.neural import NeuralConfig, init_weights, neural_model
 from morphogen.steppers import make_step
@@ -243,8 +243,9 @@ def template_model(config: TrainConfig) -> Model:
 
 def overflow_penalty(x: Array, limit: float) -> Array:
     """``sum |x - clip(x, -limit, limit)|`` over channels and cells, averaged over the batch
-    ``(B, n, *spatial)``: zero while every value stays within ``[-limit, limit]``, and large
-    (a sum, not a mean) as soon as some cells run away (as in Self-Organising Textures)."""
+    (leading axis of ``x``, channels first or last): zero while every value stays within
+    ``[-limit, limit]``, and large (a sum, not a mean) as soon as some cells run away (as in
+    Self-Organising Textures)."""
     excess = jnp.abs(x - jnp.clip(x, -limit, limit))
     return jnp.sum(excess) / x.shape[0]
 
@@ -252,20 +253,19 @@ def overflow_penalty(x: Array, limit: float) -> Array:
 def make_objective(config: TrainConfig) -> Callable:
     """The training objective ``(weights, x, n_steps, loss) -> (value, (x_out, texture,
     overflow))``: grow the batch ``x`` ``(B, n, S, S)`` for ``n_steps`` steps, then
-    ``value = mean texture loss + overflow_weight * overflow penalty``."""
-    step = make_step(template_model(config), training_grid(config))
+    ``value = mean texture loss + overflow_weight * overflow penalty``.
+
+    The batch is grown channels last (:mod:`morphogen.learn.rollout_neural`: the same eq. 1,
+    with a backward pass half as costly on a CPU) and ``x_out`` is returned channels first."""
+    step = batch_step(config.neural, config.size, config.stencil)
 
     def objective(weights, x, n_steps, loss: TextureLoss):
         p = {**weights, "r": 1.0, "d": 1.0}
-
-        def grow(u):
-            return rollout(step, u, p, max_steps=config.max_steps, n_steps=n_steps,
-                           chunk=config.chunk)
-
-        x = jax.vmap(grow)(x)
-        texture = jnp.mean(loss(state_to_rgb(x)))
+        x = rollout(step, to_last(x), p, max_steps=config.max_steps, n_steps=n_steps,
+                    chunk=config.chunk)
+        texture = jnp.mean(loss(rgb_last(x)))
         over = overflow_penalty(x, config.overflow_limit)
-        return texture + config.overflow_weight * over, (x, texture, over)
+        return texture + config.overflow_weight * over, (to_first(x), texture, over)
 
     return objective
 
@@ -278,7 +278,13 @@ def make_train_step(config: TrainConfig) -> Callable[[TrainState, TextureLoss], 
     ``metrics`` holds ``loss`` (the texture loss, batch mean), ``overflow`` and ``steps``
     (this iteration's rollout length). The state's buffers are donated: use the returned one.
     """
-    objective = make_objective(config)
+    return jax.jit(iteration(config, make_objective(config)), donate_argnums=0)
+
+
+def iteration(config: TrainConfig, objective: Callable) -> Callable[[TrainState, TextureLoss],
+                                                                    tuple]:
+    """The iteration of :func:`make_train_step`, not jitted, around a given ``objective`` (of
+    :func:`make_objective`'s signature), so a benchmark can time other formulations of it."""
     opt = optimizer(config)
     shape = (config.size, config.size)
     age = _ager(config)
@@ -310,7 +316,7 @@ def make_train_step(config: TrainConfig) -> Callable[[TrainState, TextureLoss], 
         )
         return new, {"loss": texture, "overflow": over, "steps": n_steps}
 
-    return jax.jit(train_step, donate_argnums=0)
+    return train_step
 
 
 AGE_BOUND = 4.0
