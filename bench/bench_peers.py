@@ -72,7 +72,7 @@ from morphogen.steppers import max_stable_dt
 
 SIZE, ROUNDS = 256, 3
 RESULT = Path(__file__).parent / "results" / "peers.json"
-PEERS = ("exponax", "pde")
+PEERS = {"exponax": "exponax", "pde": "py-pde"}  # module: distribution
 
 Run = Callable[[], tuple[np.ndarray, int]]  # final state and steps taken (rejected included)
 
@@ -183,9 +183,9 @@ def _pypde(problem: dict, p: dict, u0: np.ndarray, T: float, dt: float, backend:
     stepper = solver.make_stepper(state, dt=dt)
 
     def go() -> tuple[np.ndarray, int]:
-        s = state.copy()
-        stepper(s, 0.0, T - dt / 2)
-        return np.asarray(s.data), n
+        s, before = state.copy(), solver.info["steps"]
+        stepper(s, 0.0, T)  # round(T / dt) = n steps
+        return np.asarray(s.data), solver.info["steps"] - before
     return go
 
 
@@ -260,6 +260,8 @@ def _run_problem(name: str, problem: dict) -> dict:
         ref, change, wall = _reference(model, Grid((SIZE, SIZE), stencil=stencil), u0, p, T,
                                        problem["reference_dt"])
         references[group] = {"state": ref, "reference_self_change": change, "wall_s": wall}
+    ref5, refs = (references[g]["state"][shown] for g in ("5-point", "spectral"))
+    stencils_differ = _metrics(ref5, refs)
     rows = _candidates(name, problem, model, p, u0)
     finals = {label: row["fn"]() for label, row in rows.items()}  # compile; (state, steps)
     times, load_before, load_after = interleaved({k: r["fn"] for k, r in rows.items()}, ROUNDS)
@@ -285,6 +287,7 @@ def _run_problem(name: str, problem: dict) -> dict:
                 "reference_self_change": r["reference_self_change"],
                 "wall_s": round(r["wall_s"], 1)}
             for g, r in references.items()},
+        "five_point_reference_against_spectral": stencils_differ,
         "rounds": ROUNDS,
         "load_average_before": load_before,
         "load_average_after": load_after,
@@ -299,7 +302,7 @@ def versions() -> dict[str, str]:
 
 
 def run() -> dict:
-    missing = [m for m in PEERS if importlib.util.find_spec(m) is None]
+    missing = [dist for module, dist in PEERS.items() if importlib.util.find_spec(module) is None]
     if missing:
         print(f"peers: skipped, {' and '.join(missing)} not installed here; `make bench-peers` "
               "runs it in .venv-bench (keeping the stored result)", flush=True)

@@ -36,7 +36,7 @@ def test_without_peers_the_stored_result_is_kept(tmp_path, monkeypatch, capsys) 
     path = tmp_path / "peers.json"
     path.write_text(json.dumps(stored))
     monkeypatch.setattr(bench_peers, "RESULT", path)
-    monkeypatch.setattr(bench_peers, "PEERS", ("exponax", "no_such_peer_module"))
+    monkeypatch.setattr(bench_peers, "PEERS", {"exponax": "exponax", "no_such_peer": "peer-x"})
     assert bench_peers.run() == stored
     out = capsys.readouterr().out.strip().splitlines()
-    assert len(out) == 1 and "no_such_peer_module not installed" in out[0]
+    assert len(out) == 1 and "peer-x not installed" in out[0]
