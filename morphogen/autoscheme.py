@@ -11,11 +11,13 @@ time scale. The stiffness ratio
 .. math:: s = dt_R / dt_E
 
 says how many Euler steps one IMEX step replaces. An ARS(2,2,2) step (two FFT solves per
-species, two reaction evaluations) costs about 10-14 Euler steps on a CPU
-(``bench/results/integrators.json``), so ``auto`` chooses ``imex`` when ``s >``
-:data:`AUTO_RATIO` on a grid where the Fourier solve applies (periodic or no-flux boundaries,
-constant isotropic diffusion), and ``euler`` otherwise. Schnakenberg with ``Dv/Du = 40`` at
-``dx = 1`` has ``s ≈ 17.8`` (imex); Gray-Scott's defaults ``s ≈ 9.8`` (euler).
+species, two reaction evaluations) costs 13 Euler steps at 128² and 22 at 256² on the 2-core
+CPU (``bench/results/integrators.json``: the FFTs grow as ``N log N`` while XLA's explicit step
+stays memory-bound), so ``auto`` chooses ``imex`` when ``s >`` :data:`AUTO_RATIO` on a grid
+where the Fourier solve applies (periodic or no-flux boundaries, constant isotropic diffusion),
+and ``euler`` otherwise. Schnakenberg with ``Dv/Du = 40`` at ``dx = 1`` has ``s ≈ 17.8``
+(``euler``: ``imex`` at its limit ran 0.83x Euler's speed at 256²), with ``Dv/Du = 80``
+``s ≈ 35.6`` (``imex``); Gray-Scott's defaults ``s ≈ 9.8`` (``euler``).
 
 On meshes, and on grids with Dirichlet boundaries or spatially varying or anisotropic
 diffusion, each implicit solve is a conjugate-gradient iteration (:mod:`morphogen.imex_cg`)
@@ -32,8 +34,9 @@ from morphogen.errors import MorphogenError
 from morphogen.models.model import Model, Params, Tensor
 from morphogen.steppers import max_stable_dt
 
-AUTO_RATIO = 12.0
-"""Stiffness ratio ``dt_R / dt_E`` above which ``auto`` picks ``imex`` (Fourier solves)."""
+AUTO_RATIO = 25.0
+"""Stiffness ratio ``dt_R / dt_E`` above which ``auto`` picks ``imex`` (Fourier solves): above
+the 13-22 Euler steps an ``imex`` step costs at 128²-256²."""
 
 AUTO_RATIO_CG = 25.0
 """The same where ``imex`` solves diffusion by conjugate gradients (meshes; grids with

@@ -29,8 +29,9 @@ def test_command_line_choices_are_the_engine_schemes():
 
 def test_population_scheme_resolves_auto_and_refuses_adaptive():
     grid = Grid((16, 16))
-    stiff = load_model(SCHNAKENBERG)  # stiffness ratio 17.8 > 12 (docs/schemes.md)
-    assert population_scheme("auto", stiff, grid, stiff.parameters()) == "imex"
+    stiff = load_model(SCHNAKENBERG)  # Dv/Du = 80: stiffness ratio 35.6 > 25 (docs/schemes.md)
+    params = {**stiff.parameters(), "Dv": 80.0}
+    assert population_scheme("auto", stiff, grid, params) == "imex"
     gray = get_model("gray-scott")  # ratio 9.8
     assert population_scheme("auto", gray, grid, gray.parameters()) == "euler"
     assert population_scheme("rk4", gray, grid, gray.parameters()) == "rk4"
@@ -59,7 +60,7 @@ def test_search_runs_the_scheme_it_is_given():
 def test_atlas_resolves_auto():
     stiff = load_model(SCHNAKENBERG)
     atlas = compute_atlas(stiff, Grid((12, 12)), Axis("a", np.array([0.1, 0.12])),
-                          Axis("b", np.array([0.9])), steps=3, dt=0.05, scheme="auto")
+                          Axis("Dv", np.array([80.0])), steps=3, dt=0.05, scheme="auto")
     assert atlas.scheme == "imex" and atlas.valid.all()
 
 
