@@ -13,8 +13,8 @@ serves every rollout length and skipped steps cost nothing. The ``cond`` sits ou
 ``jax.checkpoint``: a ``cond`` inside it would be linearised into one that hands every
 intermediate of the step (the ``(B S S, h)`` hidden activations of a neural RD step) out of the
 branch as a residual, copying them at every step; outside, its residual is the chunk's input
-state. For the cpu training preset that took the gradient of a 48-step rollout from 0.52 to
-0.41 s (same values and gradients, bit for bit). Without ``n_steps`` (and with ``chunk``
+state. For the cpu training preset that took the gradient of a 48-step rollout from 0.48-0.53
+to 0.41-0.48 s (same values and gradients, bit for bit). Without ``n_steps`` (and with ``chunk``
 dividing ``max_steps``) there is no ``cond``.
 """
 

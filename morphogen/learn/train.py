@@ -88,7 +88,7 @@ class TrainConfig:
         chunk: steps per rematerialised rollout chunk. Memory holds ``max_steps / chunk``
             states plus one chunk's intermediate values; 1 (every step rematerialised, only the
             states kept: 50 MB for the cpu preset, 0.8 GB for the paper's) measured fastest on
-            a CPU, 1.7 times faster than 8.
+            a CPU, 1.4-1.5 times faster than 8 (and than 2 or 4).
         stencil: Laplacian stencil of the training grid (9: isotropic leading error).
         checkpoint_every, sample_every: how often to write a checkpoint and sample images.
         sample_steps: steps the fresh seeds of sample images are grown for.
