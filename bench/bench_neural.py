@@ -14,11 +14,13 @@ Reported for the ``cpu`` preset (n = 12, h = 64, 64 x 64, batch 4, 32-64 steps p
 interleaved rounds (median and fastest, ms), at a rollout of 48 steps (the mean of 32-64):
 the forward rollout without gradient, the texture loss of the final batch (feature extraction,
 Gram matrices and quantiles) and its gradient, the full ``value_and_grad`` of the objective
-(rollout, loss and the backward pass through the rematerialised rollout), the optimiser update
-and the pool's sampling and write-back; next to whole iterations (random lengths) and the 1-minute
-load average before and after. (XLA's ``cost_analysis`` is no guide here: it counts a loop's
-body once, so it reports 0.06 GFLOP for a forward rollout of 48 steps that does 2.4.) The
-measurement holds ``/tmp/heavy.lock`` (shared machine: one heavy measurement at a time).
+(rollout, loss and the backward pass through the rematerialised rollout), the optimiser
+update, the pool's sampling and write-back, and pool ageing (``age_steps`` forward steps of
+the batch, every ``age_every``-th iteration from ``age_start`` on); next to whole iterations
+(random lengths, before ageing starts) and the 1-minute load average before and after. (XLA's
+``cost_analysis`` is no guide here: it counts a loop's body once, so it reports 0.06 GFLOP for
+a forward rollout of 48 steps that does 2.4.) The measurement holds ``/tmp/heavy.lock``
+(shared machine: one heavy measurement at a time).
 
 On a GPU the ``paper`` preset (n = 32, h = 128, 128 x 128, 32-96 steps) is timed too and
 projected to its 20 000 iterations (the paper: about an hour on an NVIDIA P100).
@@ -46,6 +48,7 @@ from morphogen.learn.textures import synthetic_texture
 from morphogen.learn.train import (
     TrainConfig,
     init_state,
+    make_ager,
     make_objective,
     make_train_step,
     normalise_gradients,
@@ -97,8 +100,8 @@ def profile_parts(config: TrainConfig) -> dict[str, Callable[[], object]]:
     loss = texture_loss(synthetic_texture("dots", config.size), make_extractor("random"),
                         config.n_rot)
     state = init_state(config)
-    weights = dict(state.weights)
-    weights["W1"] = jnp.asarray(0.05 * np.random.default_rng(0).standard_normal(
+    weights = dict(state.weights)  # a small reaction: the states stay within [-2, 2]
+    weights["W1"] = jnp.asarray(0.01 * np.random.default_rng(0).standard_normal(
         weights["W1"].shape), jnp.float32)
     x = state.pool[:config.batch_size]
     step = batch_step(config.neural, config.size, config.stencil)
@@ -129,6 +132,7 @@ def profile_parts(config: TrainConfig) -> dict[str, Callable[[], object]]:
         return batch, pool.at[idx].set(y)
 
     pool_j = jax.jit(pool)
+    age_j = jax.jit(make_ager(config))
     train = make_train_step(config)
     run_state = [init_state(config)]
 
@@ -145,6 +149,7 @@ def profile_parts(config: TrainConfig) -> dict[str, Callable[[], object]]:
         "value_and_grad": lambda: value_and_grad(weights, x, PROFILE_STEPS, loss),
         "optimiser_update": lambda: update_j(weights, grads, state.opt_state),
         "pool_update": lambda: pool_j(state.pool, key, jnp.moveaxis(final, -1, 1)),
+        "pool_ageing": lambda: age_j(weights, x),
         "iteration": whole,
     }
     timed = {k: (lambda f=f: jax.block_until_ready(f())) for k, f in parts.items()}

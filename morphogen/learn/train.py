@@ -287,7 +287,7 @@ def iteration(config: TrainConfig, objective: Callable) -> Callable[[TrainState,
     :func:`make_objective`'s signature), so a benchmark can time other formulations of it."""
     opt = optimizer(config)
     shape = (config.size, config.size)
-    age = _ager(config)
+    age = make_ager(config)
 
     def train_step(state: TrainState, loss: TextureLoss):
         key = jax.random.fold_in(state.key, state.iteration)
@@ -326,7 +326,7 @@ steps without the overflow penalty's pull can blow up (loss 1e12 after 40 iterat
 ageing began at iteration 3), and a pool of blown-up states trains nothing."""
 
 
-def _ager(config: TrainConfig) -> Callable | None:
+def make_ager(config: TrainConfig) -> Callable | None:
     """``(weights, x) -> x`` advanced ``age_steps`` steps without gradient (members that leave
     ``[-AGE_BOUND, AGE_BOUND] * overflow_limit`` keep their old value), or ``None``."""
     if config.age_every <= 0 or config.age_steps <= 0:
