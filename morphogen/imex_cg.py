@@ -155,6 +155,11 @@ class ImplicitDiffusion:
         return (not self.on_mesh and self.bcs[i].kind in ("periodic", "neumann")
                 and not isinstance(d, Tensor) and jnp.ndim(d) == 0)
 
+    def iterative(self, i: int, d: Any) -> bool:
+        """Whether species ``i`` with coefficient ``d`` is solved by iteration (not a zero
+        coefficient, not an exact Fourier solve)."""
+        return not (isinstance(d, int | float) and d == 0) and not self.fourier(i, d)
+
     def solve(self, b: Array, coeffs: tuple[Any, ...], c: Array, x0: Array) -> Array:
         """Solve ``(I - c L_{D_i}) x_i = b_i`` for every species; ``b``, ``x0`` are
         ``(S, *spatial)``; held values of ``b`` are replaced by the Dirichlet ones."""
@@ -163,10 +168,10 @@ class ImplicitDiffusion:
         for i, d in enumerate(coeffs):
             if isinstance(d, int | float) and d == 0:
                 rows.append(z[i])
-            elif self.fourier(i, d):
-                rows.append(self.spectral.solve_one(z[i], d, c, self.bcs[i].kind == "neumann"))
-            else:
+            elif self.iterative(i, d):
                 rows.append(self._iterate(i, z[i], d, c, x0[i]))
+            else:
+                rows.append(self.spectral.solve_one(z[i], d, c, self.bcs[i].kind == "neumann"))
         return jnp.stack(rows)
 
     def _iterate(self, i: int, z: Array, d: Any, c: Array, x0: Array) -> Array:
@@ -180,7 +185,7 @@ class ImplicitDiffusion:
         z = self.domain.hold(b, self.bcs)
         ratios = []
         for i, d in enumerate(coeffs):
-            if (isinstance(d, int | float) and d == 0) or self.fourier(i, d):
+            if not self.iterative(i, d):
                 ratios.append(jnp.zeros((), b.dtype))
                 continue
             system = self._system(i, z[i], d, c, x0[i])

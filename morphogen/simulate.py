@@ -277,8 +277,7 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
     n_batch = u.shape[0] if batched else 1
     first_bad = np.zeros(n_batch, np.int64)
     watch = None if unsafe else _Watch(model, domain, u, p, dt, scheme, batched)
-    solves = (SolveWatch(model, domain, scheme)
-              if SolveWatch.needed(model, domain, p, scheme, batched) else None)
+    solves = SolveWatch.for_run(model, domain, p, scheme, batched)
     t = jnp.asarray(0.0, dtype)
     done = 0
     bar = ProgressBar(steps, enabled=progress, unit="step")

@@ -15,6 +15,7 @@ to 250 steps).
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any
 
 import jax
@@ -32,43 +33,45 @@ REPORT_RATIO = 10.0
 recomputed residual of a converged float32 solve can exceed its recursive one slightly)."""
 
 
-def iterative_species(model: Model, domain: Any, params: Params, solver: ImplicitDiffusion
-                      ) -> bool:
-    """Whether any species' implicit solve is iterative (not an exact Fourier solve)."""
-    coords = {**domain.coords, "t": 0.0}
-    coeffs = model.diffusion({k: jnp.asarray(v) for k, v in params.items()}, coords)
-    return any(not (isinstance(d, int | float) and d == 0) and not solver.fourier(i, d)
-               for i, d in enumerate(coeffs))
+@lru_cache(maxsize=32)
+def _probe(model: Model, domain: Any, scheme: str) -> tuple[ImplicitDiffusion, Any]:
+    """The domain's implicit solver and the compiled probe of a step's first solve, kept per
+    model, domain and scheme like the step itself (a run does not trace and compile it again)."""
+    solver = ImplicitDiffusion(domain, model.species, held_mask(model, domain))
+    gamma = 1.0 if scheme == "imex1" else ARS_GAMMA
+    coords = {k: jnp.asarray(v) for k, v in domain.coords.items()}
+    bcs = domain.boundaries(model.species)
+
+    def probe(u: Array, p: Params, t: Array, dt: Array) -> Array:
+        c = {**coords, "t": t}
+        u = domain.hold(u, bcs)
+        b = u + gamma * dt * model.reaction(u, p, c)
+        return solver.residual_ratios(b, tuple(model.diffusion(p, c)), gamma * dt, u)
+
+    return solver, jax.jit(probe)
 
 
 class SolveWatch:
     """Probe the next step's first implicit solve between chunks; remember the worst one."""
 
-    def __init__(self, model: Model, domain: Any, scheme: str):
-        self.model, self.domain = model, domain
-        solver = ImplicitDiffusion(domain, model.species, held_mask(model, domain))
-        self.solver = solver
-        gamma = 1.0 if scheme == "imex1" else ARS_GAMMA
-        coords = {k: jnp.asarray(v) for k, v in domain.coords.items()}
-        bcs = domain.boundaries(model.species)
-
-        def probe(u: Array, p: Params, t: Array, dt: Array) -> Array:
-            c = {**coords, "t": t}
-            u = domain.hold(u, bcs)
-            b = u + gamma * dt * model.reaction(u, p, c)
-            return solver.residual_ratios(b, tuple(model.diffusion(p, c)), gamma * dt, u)
-
-        self.probe = jax.jit(probe)
+    def __init__(self, model: Model, probe: Any):
+        self.model, self.probe = model, probe
         self.worst = 0.0
         self.where: tuple[int, str] | None = None
 
-    @staticmethod
-    def needed(model: Model, domain: Any, params: Params, scheme: str, batched: bool) -> bool:
-        """Whether a run should be watched: an IMEX scheme with an iterative solve, one state."""
+    @classmethod
+    def for_run(cls, model: Model, domain: Any, params: Params, scheme: str, batched: bool
+                ) -> SolveWatch | None:
+        """A watch for a run of an IMEX scheme with an iterative solve on one state, else
+        ``None``."""
         if batched or scheme not in IMEX_SCHEMES:
-            return False
-        solver = ImplicitDiffusion(domain, model.species, held_mask(model, domain))
-        return iterative_species(model, domain, params, solver)
+            return None
+        solver, probe = _probe(model, domain, scheme)
+        coords = {**domain.coords, "t": 0.0}
+        coeffs = model.diffusion({k: jnp.asarray(v) for k, v in params.items()}, coords)
+        if not any(solver.iterative(i, d) for i, d in enumerate(coeffs)):
+            return None
+        return cls(model, probe)
 
     def check(self, u: Array, p: Params, t: Array, dt: float, step: int) -> None:
         """Probe the solve from state ``u`` at time ``t`` (after ``step`` steps)."""

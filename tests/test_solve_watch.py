@@ -31,7 +31,7 @@ def _u0(mesh: Mesh) -> np.ndarray:
 
 def test_a_converged_solve_is_within_its_threshold_and_not_reported(sphere):
     heat = linear("field")
-    watch = SolveWatch(heat, sphere, "imex")
+    watch = SolveWatch.for_run(heat, sphere, P, "imex", batched=False)
     p = {k: jnp.asarray(v) for k, v in P.items()}
     for dt in (0.1, 1e2, 1e4):  # 15x to 1.5 million x the explicit limit
         ratio = float(watch.probe(jnp.asarray(_u0(sphere)), p, jnp.float32(0), jnp.float32(dt))[0])
@@ -43,7 +43,7 @@ def test_a_converged_solve_is_within_its_threshold_and_not_reported(sphere):
 def test_a_solve_stopped_at_the_cap_is_reported_with_species_and_step(sphere, monkeypatch):
     monkeypatch.setattr(imex_cg, "CG_MAXITER", 2)
     heat = linear("field")  # a new model: its steps compile with the lowered cap
-    ratio = SolveWatch(heat, sphere, "imex").probe(
+    ratio = SolveWatch.for_run(heat, sphere, P, "imex", batched=False).probe(
         jnp.asarray(_u0(sphere)), {k: jnp.asarray(v) for k, v in P.items()}, jnp.float32(0),
         jnp.float32(100.0))
     assert float(ratio[0]) > REPORT_RATIO
@@ -57,10 +57,11 @@ def test_exact_fourier_solves_and_explicit_schemes_are_not_watched(sphere):
     from morphogen.domains.grid import Grid
 
     heat = linear("scalar")
-    assert not SolveWatch.needed(heat, Grid((16, 16)), P, "imex", batched=False)
-    assert SolveWatch.needed(heat, sphere, P, "imex", batched=False)
-    assert not SolveWatch.needed(heat, sphere, P, "euler", batched=False)
-    assert SolveWatch.needed(linear("field"), Grid((16, 16)), P, "imex1", batched=False)
+    assert SolveWatch.for_run(heat, Grid((16, 16)), P, "imex", batched=False) is None
+    assert SolveWatch.for_run(heat, sphere, P, "imex", batched=False) is not None
+    assert SolveWatch.for_run(heat, sphere, P, "euler", batched=False) is None
+    field = linear("field")
+    assert SolveWatch.for_run(field, Grid((16, 16)), P, "imex1", batched=False) is not None
 
 
 def test_the_command_line_prints_the_warning_on_one_line_and_records_it(tmp_path, monkeypatch):
