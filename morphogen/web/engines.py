@@ -6,12 +6,14 @@ value the jitted frame program of :mod:`morphogen.web.live`. :func:`engine_for` 
 
 The engine's model remembers its homogeneous ground state per parameter set
 (:func:`remembered_ground`). A model without a closed-form ``ground`` finds it by the damped
-Newton iteration of :meth:`morphogen.models.model.Model.ground_state`: 60 eager steps of
-``u <- u - 0.7 J(u)^+ R(u)``, 0.3-0.5 s a call on an idle 2-core machine and 2.3-2.6 s the first
-time in a process, and the live view asks for it at every start (the initial condition, the
-explicit ``dt`` limit of :func:`morphogen.stability.linear_limit`) and at every brush point
-(the ground or excited state painted). FitzHugh-Nagumo and the activator-inhibitor model of the
-library have no closed form, nor does a pasted model without an ``[initial]`` table.
+Newton iteration of :meth:`morphogen.models.model.Model.ground_state` (60 steps of
+``u <- u - 0.7 J(u)^+ R(u)``, one compiled program per model: 0.2-1.3 s the first time in a
+process, then under a millisecond; run op by op it took 2.3-2.6 s, then 0.3-0.5 s a call), and
+the live view asks for it at every start (the initial condition, the explicit ``dt`` limit of
+:func:`morphogen.stability.linear_limit`) and at every brush point (the ground or excited state
+painted); remembering it leaves one solve per parameter set. FitzHugh-Nagumo and the
+activator-inhibitor model of the library have no closed form, nor does a pasted model without
+an ``[initial]`` table.
 """
 
 from __future__ import annotations
