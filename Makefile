@@ -24,13 +24,15 @@ upgrade:
 	$(MAKE) lock
 
 demo: $(STAMP)
-	$(BIN)/python -m morphogen.demo --out out/demo
+	$(BIN)/python -m morphogen.cli.demo --out out/demo
 
 flowers: $(STAMP)
 	$(BIN)/morphogen gallery flowers --out out/flowers
 
+# ruff, then the layer rule and the ban on import circles (pyproject.toml [tool.importlinter]).
 lint: $(STAMP)
 	$(BIN)/ruff check morphogen tests bench fuzz
+	$(BIN)/lint-imports --no-cache
 
 # Two workers, a file each; each worker's XLA runs on one thread, so the two share the cores
 # instead of oversubscribing them. Most of the suite's time is compiling small programs, so

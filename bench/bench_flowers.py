@@ -4,7 +4,7 @@ Table 1 times the final patterning (the diffusion or reaction-diffusion simulati
 case studies on an AMD Ryzen 7 5800X with 1 and 16 threads and on an RTX 2070 SUPER; Platycodon
 (§4.1) has no simulation and no row. Each shipped pipeline (``examples/flowers/*.toml`` and the
 two older mesh pipelines) is run here at its shipped size, without pictures
-(:func:`morphogen.pipeline.run_pipeline` with ``pictures=False``): the mesh is built, the
+(:func:`morphogen.flowers.pipeline.run_pipeline` with ``pictures=False``): the mesh is built, the
 prepattern stages (veins, positional information, fields, points) run and are timed, vein
 growth separately, and each simulation stage's wall time (compilation included) is recorded.
 
@@ -73,7 +73,7 @@ def _fit(full: list[dict], small: list[dict]) -> list[dict]:
 
 def run_case(name: str, path: Path, fraction: int = 1) -> dict:
     """Run one pipeline without pictures; per-stage times from its ``pipeline.json``."""
-    from morphogen.pipeline import build_mesh, load_pipeline, run_pipeline
+    from morphogen.flowers.pipeline import build_mesh, load_pipeline, run_pipeline
 
     spec = load_pipeline(path)
     started = time.perf_counter()
@@ -177,7 +177,7 @@ def run(only: list[str] | None = None) -> dict:
 if __name__ == "__main__":
     import sys
 
-    from morphogen.io import write_json
+    from morphogen.util.io import write_json
 
     result = run(sys.argv[1:] or None)
     print(json.dumps(result, indent=2))

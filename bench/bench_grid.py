@@ -1,12 +1,14 @@
 """The explicit grid step and its batching, against references measured in the same run.
 
 (a) Gray-Scott (Skaggs eqs. 2.3-2.4) on 256², 5-point, periodic, explicit Euler, float32, through
-:func:`morphogen.simulate.simulate` (batch 1) and :func:`~morphogen.simulate.simulate_batch`
+:func:`morphogen.engine.simulate.simulate` (batch 1) and
+:func:`~morphogen.engine.simulate.simulate_batch`
 (batch 16), next to a textbook NumPy loop and to the same engine with the previous grid
 operator, which padded and differenced each species separately (``per_species``).
 
 (b) The reaction-network workload of issue 11 (Yamamoto §3.4: 150 members × 32², 3 species,
-``dt = 0.1``): ``simulate_batch`` against ``jax.vmap`` over :func:`~morphogen.simulate.integrate`
+``dt = 0.1``): ``simulate_batch`` against ``jax.vmap`` over
+:func:`~morphogen.engine.simulate.integrate`
 with the previous operator (the figure the issue measured) and with the current one, and every
 CPU batching rule (one member at a time, blocks of 15, one ``vmap``) at 32² and 16².
 
@@ -28,11 +30,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.domains.grid import Grid
-from morphogen.initial import make_initial
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import batch_block, integrate, simulate, simulate_batch
 from morphogen.models.library import get_model
 from morphogen.models.network import yamamoto_activator_inhibitor
-from morphogen.simulate import batch_block, integrate, simulate, simulate_batch
-from morphogen.steppers import batch_params, make_step
+from morphogen.solvers.step import batch_params, make_step
 
 SIZE, STEPS, BATCH, ROUNDS = 256, 2000, 16, 3
 NET_MEMBERS, NET_STEPS = 150, 400

@@ -1,5 +1,5 @@
 """Time to reach t = T on a stiff mesh model: explicit Euler at its limit against IMEX with
-conjugate-gradient diffusion solves (:mod:`morphogen.imex_cg`) at the reaction's limit.
+conjugate-gradient diffusion solves (:mod:`morphogen.solvers.imex_cg`) at the reaction's limit.
 
 Ringham's Mimulus (``examples/mimulus-mesh-pipeline.toml``: activator-inhibitor, eq. 19,
 ``D_h / D_a = 40``, spots on a painted prepattern of a two-lipped tube) at a modest size
@@ -29,15 +29,15 @@ import jax
 import numpy as np
 
 from bench.timing import interleaved
-from morphogen.autoscheme import choose_scheme, stiffness_ratio
+from morphogen.domains.ply import apply_fields
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError
-from morphogen.imex_cg import CG_MAXITER, CG_RTOL
-from morphogen.initial import make_initial
-from morphogen.mesh_io import apply_fields
-from morphogen.models.equations import load_model
-from morphogen.pipeline import evaluate, load_pipeline, run_pipeline
-from morphogen.simulate import simulate
-from morphogen.steppers import max_stable_dt
+from morphogen.flowers.pipeline import evaluate, load_pipeline, run_pipeline
+from morphogen.models.registry import load_model
+from morphogen.solvers.auto import choose_scheme, stiffness_ratio
+from morphogen.solvers.imex_cg import CG_MAXITER, CG_RTOL
+from morphogen.solvers.step import max_stable_dt
 
 PIPELINE = Path(__file__).parent.parent / "examples" / "mimulus-mesh-pipeline.toml"
 EDGE, T, ROUNDS = 0.06, 17500 * 0.06, 3

@@ -22,12 +22,12 @@ import jax
 import numpy as np
 
 from bench.timing import interleaved
-from morphogen.autoscheme import choose_scheme, stiffness_ratio
 from morphogen.domains.grid import Grid
-from morphogen.initial import make_initial
-from morphogen.models.equations import load_model
-from morphogen.simulate import simulate
-from morphogen.steppers import max_stable_dt
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import simulate
+from morphogen.models.registry import load_model
+from morphogen.solvers.auto import choose_scheme, stiffness_ratio
+from morphogen.solvers.step import max_stable_dt
 
 SIZE, T, ROUNDS = 256, 30.0, 3
 MODEL = "examples/schnakenberg.toml"

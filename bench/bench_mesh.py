@@ -57,9 +57,9 @@ def _reference_rate(mesh, params, u0, steps: int) -> float:
 def run(steps: int = STEPS) -> dict:
     import jax
 
-    from morphogen.initial import make_initial
+    from morphogen.engine.initial import make_initial
+    from morphogen.engine.simulate import simulate
     from morphogen.models.library import get_model
-    from morphogen.simulate import simulate
 
     t0 = time.perf_counter()
     mesh = mimulus_mesh()
@@ -108,7 +108,7 @@ def run(steps: int = STEPS) -> dict:
 if __name__ == "__main__":
     import json
 
-    from morphogen.io import write_json
+    from morphogen.util.io import write_json
 
     result = run()
     print(json.dumps(result, indent=2))

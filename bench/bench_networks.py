@@ -27,6 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.domains.grid import Grid
+from morphogen.engine.simulate import integrate
 from morphogen.models.network import yamamoto_activator_inhibitor
 from morphogen.search.networks import evolve
 from morphogen.search.networks.genome import (
@@ -38,8 +39,7 @@ from morphogen.search.networks.genome import (
 )
 from morphogen.search.networks.operators import Operators, random_population
 from morphogen.search.networks.reaction import genome_params, padded_model
-from morphogen.simulate import integrate
-from morphogen.steppers import make_step
+from morphogen.solvers.step import make_step
 
 SIZE, POP, STEPS = 32, 150, 400
 FULL_RUN = 150 * 32 * 32 * (20000 + 9 * 2000) * 100

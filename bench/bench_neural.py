@@ -39,7 +39,8 @@ import numpy as np
 import optax
 
 from bench.timing import interleaved
-from morphogen.learn.features import make_extractor
+from morphogen.engine.simulate import simulate_batch
+from morphogen.learn.extractors import make_extractor
 from morphogen.learn.loss import texture_loss
 from morphogen.learn.rollout import rollout
 from morphogen.learn.rollout_neural import batch_step, rgb_last, to_last
@@ -57,8 +58,7 @@ from morphogen.learn.train import (
     training_grid,
 )
 from morphogen.models.neural import KERNEL_SCALE, fixed_diffusion, neural_model
-from morphogen.simulate import simulate_batch
-from morphogen.steppers import batch_params
+from morphogen.solvers.step import batch_params
 
 TIMED_ITERATIONS = 20
 FORWARD_STEPS = 200

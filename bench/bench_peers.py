@@ -5,8 +5,8 @@ Two problems on a periodic 256² grid with ``dx = 1`` (domain length 256):
 - Schnakenberg (``examples/schnakenberg.toml``, Murray II eq. 2.8, ``Dv/Du = 40``), noise start;
 - Gray-Scott at the library model's defaults (Skaggs eqs. 2.3-2.4), blobs start.
 
-The initial state is made once by :func:`morphogen.initial.make_initial` (seed 0) and the same
-NumPy array is handed to every solver. The peers are given the same domain length, grid
+The initial state is made once by :func:`morphogen.engine.initial.make_initial` (seed 0) and the
+same NumPy array is handed to every solver. The peers are given the same domain length, grid
 spacing, diffusion coefficients and reaction terms as the morphogen model:
 
 - Exponax 0.2.0 (Koehler et al., pseudo-spectral ETDRK): its ``GrayScott`` stepper at order 4,
@@ -64,11 +64,11 @@ import numpy as np
 
 from bench.timing import interleaved
 from morphogen.domains.grid import Grid
-from morphogen.initial import make_initial
-from morphogen.models.equations import load_model
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import simulate
 from morphogen.models.library import get_model
-from morphogen.simulate import simulate
-from morphogen.steppers import max_stable_dt
+from morphogen.models.registry import load_model
+from morphogen.solvers.step import max_stable_dt
 
 SIZE, ROUNDS = 256, 3
 RESULT = Path(__file__).parent / "results" / "peers.json"

@@ -31,7 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from morphogen.models.equations import load_model
+from morphogen.models.registry import load_model
 from morphogen.patterns.classify import classify
 from morphogen.patterns.descriptors import describe_batch
 from morphogen.search import fitness as fit

@@ -7,7 +7,8 @@ numpy`` and ``import jax`` (the floor a command that simulates cannot go below).
 the load average before and after. Targets (issue 11 §4): ``--help`` and ``models`` under 0.5 s,
 a first small simulate under 3 s.
 
-The commands share a compilation cache (:mod:`morphogen.compile_cache`) in a fresh folder, which
+The commands share a compilation cache (:mod:`morphogen.util.compile_cache`) in a fresh folder,
+which
 the warm-up round fills: ``simulate_64`` is a repeated simulate that loads its compiled programs,
 ``simulate_64_no_cache`` the same command with the cache off, which compiles them again.
 """
@@ -23,7 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from morphogen import compile_cache
+from morphogen.util import compile_cache
 
 ROUNDS = 5
 TARGETS_S = {"help": 0.5, "models": 0.5, "simulate_64": 3.0}

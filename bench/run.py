@@ -17,7 +17,7 @@ from pathlib import Path
 
 import jax
 
-from morphogen.io import write_json
+from morphogen.util.io import write_json
 
 HERE = Path(__file__).parent
 

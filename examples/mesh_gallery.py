@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from morphogen.flowers import corolla, petal, tube
-from morphogen.pipeline import run_pipeline
+from morphogen.flowers.pipeline import run_pipeline
 from morphogen.render.colour import colourise
 from morphogen.render.images import write_png
 from morphogen.render.mesh import render_mesh

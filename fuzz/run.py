@@ -34,7 +34,7 @@ def seed_corpus(target: str, folder: Path) -> Path:
             (folder / toml.name).write_bytes(toml.read_bytes())
     elif target == "network":
         from morphogen.models.network import yamamoto_network
-        from morphogen.models.sbml import to_antimony, to_sbml
+        from morphogen.models.text.sbml import to_antimony, to_sbml
 
         for ant in sorted((EXAMPLES / "networks").glob("*.ant")):
             (folder / ant.name).write_bytes(ant.read_bytes())
@@ -43,7 +43,7 @@ def seed_corpus(target: str, folder: Path) -> Path:
         (folder / "yamamoto.ant").write_text(to_antimony(net), encoding="utf-8")
     else:
         from morphogen.domains.mesh import Mesh
-        from morphogen.mesh_io import save_ply
+        from morphogen.domains.ply import save_ply
 
         mesh = Mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.2]], [[0, 1, 2], [1, 3, 2]])
         for binary in (False, True):

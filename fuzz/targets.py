@@ -19,10 +19,10 @@ from pathlib import Path
 import atheris
 
 with atheris.instrument_imports(include=["morphogen"]):
+    from morphogen.domains.ply import load_mesh
     from morphogen.errors import MorphogenError
-    from morphogen.mesh_io import load_mesh
-    from morphogen.models.equations import parse_model
-    from morphogen.models.sbml import load_network_file
+    from morphogen.models.text.equations import parse_model
+    from morphogen.models.text.sbml import load_network_file
 
 _SCRATCH = Path(tempfile.mkdtemp(prefix="morphogen-fuzz-", dir="/dev/shm" if
                                  os.path.isdir("/dev/shm") else None))

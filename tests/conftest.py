@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from morphogen import compile_cache
+from morphogen.util import compile_cache
 
 
 @pytest.fixture(scope="session", autouse=True)

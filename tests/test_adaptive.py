@@ -9,15 +9,17 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from morphogen.adaptive import simulate_adaptive, solve
-from morphogen.autoscheme import AUTO_RATIO, choose_scheme, stiffness_ratio
 from morphogen.domains.grid import Grid
+from morphogen.engine.simulate import simulate, simulate_batch
 from morphogen.errors import MorphogenError
-from morphogen.models.equations import load_model
 from morphogen.models.model import Model
-from morphogen.runfile import RunConfig, prepare, run_prepared, run_record
-from morphogen.simulate import simulate, simulate_batch
-from morphogen.steppers import Noise
+from morphogen.models.registry import load_model
+from morphogen.runs.config import RunConfig
+from morphogen.runs.execute import run_prepared, run_record
+from morphogen.runs.prepare import prepare
+from morphogen.solvers.adaptive import simulate_adaptive, solve
+from morphogen.solvers.auto import AUTO_RATIO, choose_scheme, stiffness_ratio
+from morphogen.solvers.step import Noise
 
 LINEAR = Model(
     name="linear", species=("u",), params={"k": 0.5, "D": 0.8},

@@ -16,8 +16,8 @@ import pytest
 
 from morphogen.cli.main import main
 from morphogen.errors import MorphogenError
-from morphogen.guard import LIMITS, check_memory, check_steps
-from morphogen.models.equations import parse_model
+from morphogen.models.text.equations import parse_model
+from morphogen.util.guard import LIMITS, check_memory, check_steps
 
 MODEL = """\
 species = ["u", "v"]
@@ -217,7 +217,7 @@ def test_reaching_the_model_ceiling_is_a_blow_up(tmp_path, capsys):
 def test_ply_declaring_more_faces_than_its_bytes_is_refused_at_once(tmp_path, faces, fmt):
     import time
 
-    from morphogen.mesh_io import load_mesh
+    from morphogen.domains.ply import load_mesh
 
     header = (f"ply\nformat {fmt} 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
               f"property float z\nelement face {faces}\nproperty list uchar int vertex_indices\n"
@@ -233,7 +233,7 @@ def test_ply_declaring_more_faces_than_its_bytes_is_refused_at_once(tmp_path, fa
 
 
 def test_ply_header_check_passes_an_exact_file(tmp_path):
-    from morphogen.mesh_io import check_declared_sizes
+    from morphogen.domains.ply import check_declared_sizes
 
     # Binary: 3 vertices x 12 bytes + 1 face x 1 count byte = 37 bytes at least.
     header = (b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"

@@ -9,7 +9,7 @@ import sys
 
 import numpy as np
 
-from morphogen import compile_cache
+from morphogen.util import compile_cache
 
 RUN = """
 import json, sys

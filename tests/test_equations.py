@@ -11,13 +11,14 @@ import numpy as np
 import pytest
 
 from morphogen.domains.grid import Grid
+from morphogen.engine.simulate import integrate, simulate
 from morphogen.errors import MorphogenError
-from morphogen.models.equations import load_model, load_model_file, parse_model
 from morphogen.models.expr import ExpressionError, compile_expression
 from morphogen.models.library import get_model
 from morphogen.models.model import Tensor
-from morphogen.simulate import integrate, simulate
-from morphogen.steppers import make_step
+from morphogen.models.registry import load_model
+from morphogen.models.text.equations import load_model_file, parse_model
+from morphogen.solvers.step import make_step
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 

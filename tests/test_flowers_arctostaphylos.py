@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError
 from morphogen.flowers import urn, urn_flower
-from morphogen.models.equations import load_model
-from morphogen.pipeline import build_mesh, load_pipeline, run_pipeline
-from morphogen.simulate import simulate
+from morphogen.flowers.pipeline import build_mesh, load_pipeline, run_pipeline
+from morphogen.models.registry import load_model
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "flowers" / "arctostaphylos.toml"
 

@@ -11,7 +11,7 @@ import pytest
 
 from morphogen.errors import MorphogenError
 from morphogen.flowers import orchid
-from morphogen.pipeline import load_pipeline, run_pipeline
+from morphogen.flowers.pipeline import load_pipeline, run_pipeline
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "flowers" / "phalaenopsis-leopard.toml"
 

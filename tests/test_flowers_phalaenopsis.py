@@ -14,7 +14,7 @@ from scipy.sparse.csgraph import connected_components
 from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
 from morphogen.flowers import Organ, assemble, orchid, petal
-from morphogen.pipeline import build_mesh, load_pipeline, run_pipeline
+from morphogen.flowers.pipeline import build_mesh, load_pipeline, run_pipeline
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "flowers" / "phalaenopsis-nankung.toml"
 

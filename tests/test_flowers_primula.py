@@ -12,7 +12,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.special import erfcinv
 
-from morphogen.pipeline import load_pipeline, run_pipeline
+from morphogen.flowers.pipeline import load_pipeline, run_pipeline
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "flowers" / "primula.toml"
 EDGE = 0.03

@@ -11,10 +11,10 @@ import pytest
 
 from morphogen.cli.main import main
 from morphogen.cli.mesh_cmd import SHAPES as CLI_SHAPES
+from morphogen.domains.ply import load_mesh
 from morphogen.errors import MorphogenError
 from morphogen.flowers import SHAPES, estimate_vertices, make_shape, petal, tube, two_lipped
-from morphogen.mesh_io import load_mesh
-from morphogen.pipeline import build_mesh
+from morphogen.flowers.pipeline import build_mesh
 
 
 def test_edge_is_the_final_edge_in_mesh_make_and_in_pipelines(tmp_path: Path) -> None:

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 from morphogen.cli.main import main
+from morphogen.domains.ply import load_mesh, save_ply
 from morphogen.errors import MorphogenError
 from morphogen.flowers import petal
-from morphogen.mesh_io import load_mesh, save_ply
-from morphogen.pipeline import run_pipeline
+from morphogen.flowers.pipeline import run_pipeline
 from morphogen.render.colour import colourise
-from morphogen.runschema import validate_config
+from morphogen.runs.schema import validate_config
 
 GOLD, BLACK = [244, 196, 48], [59, 6, 18]  # #f4c430, #3b0612 (Primula, §4.3)
 

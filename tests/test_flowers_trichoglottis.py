@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from morphogen.pipeline import load_pipeline, run_pipeline
+from morphogen.flowers.pipeline import load_pipeline, run_pipeline
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "flowers"
 EXAMPLE = EXAMPLES / "trichoglottis.toml"

@@ -70,7 +70,7 @@ def test_expression_parser_loads_or_refuses(text):
 @FAST
 @given(st.data())
 def test_model_file_parser_loads_or_refuses(data):
-    from morphogen.models.equations import parse_model
+    from morphogen.models.text.equations import parse_model
 
     lines = MODEL.splitlines()
     i = data.draw(st.integers(0, len(lines) - 1))
@@ -88,8 +88,8 @@ def test_model_file_parser_loads_or_refuses(data):
 @given(st.dictionaries(st.sampled_from(CONFIG_KEYS), json_values, max_size=6),
        st.booleans())
 def test_run_config_loads_or_refuses(config, with_model):
-    from morphogen.runfile import RunConfig
-    from morphogen.runschema import validate_config
+    from morphogen.runs.config import RunConfig
+    from morphogen.runs.schema import validate_config
 
     if with_model:
         config = {"model": "gray-scott", **config}
@@ -104,7 +104,7 @@ def test_run_config_loads_or_refuses(config, with_model):
 @FAST
 @given(st.binary(max_size=300) | json_values.map(lambda v: json.dumps({"config": v}).encode()))
 def test_run_file_loads_or_refuses(tmp_path_factory, content):
-    from morphogen.runfile import load_run_file
+    from morphogen.runs.config import load_run_file
 
     root = tmp_path_factory.mktemp("runfile")
     path = root / "run.json"
@@ -126,7 +126,7 @@ PLY_HEAD = ("ply\nformat {fmt} 1.0\nelement vertex {nv}\nproperty float x\nprope
        st.integers(0, 10**12), st.integers(0, 10**12), st.binary(max_size=200),
        st.booleans())
 def test_ply_loader_loads_or_refuses(tmp_path_factory, fmt, nv, nf, body, ascii_body):
-    from morphogen.mesh_io import load_mesh
+    from morphogen.domains.ply import load_mesh
 
     root = tmp_path_factory.mktemp("ply")
     path = root / "m.ply"
@@ -157,7 +157,7 @@ ARGS = ["--size", "8x8", "--size", "100000x100000", "--size", "3x3x3x3", "--step
 def test_simulate_arguments_parse_or_refuse(tmp_path_factory, argv):
     from morphogen.cli.main import build_parser
     from morphogen.cli.simulate_cmd import config_from_args
-    from morphogen.runschema import validate_config
+    from morphogen.runs.schema import validate_config
 
     root = tmp_path_factory.mktemp("cli")
     cwd = os.getcwd()

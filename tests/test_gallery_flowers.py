@@ -5,8 +5,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from morphogen.case_studies import EXAMPLES, find_flowers
 from morphogen.cli.main import main
+from morphogen.flowers.case_studies import EXAMPLES, find_flowers
 
 _TINY = """# A tiny petal (Ringham et al. 2021, §4.2, used only by the tests)
 seed = 1

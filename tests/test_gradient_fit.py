@@ -9,9 +9,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from morphogen.engine.simulate import integrate
 from morphogen.errors import MorphogenError
 from morphogen.render import write_png
-from morphogen.runfile import RunConfig, prepare, run_prepared
+from morphogen.runs.config import RunConfig
+from morphogen.runs.execute import run_prepared
+from morphogen.runs.prepare import prepare
 from morphogen.search.archive import Archive
 from morphogen.search.evaluate import Problem
 from morphogen.search.executors import make_executor
@@ -19,8 +22,7 @@ from morphogen.search.genes import Gene
 from morphogen.search.gradient import GradientAscent, GradientEvaluator, field_image, fit
 from morphogen.search.run import evolve, start
 from morphogen.search.strategy import Strategy
-from morphogen.simulate import integrate
-from morphogen.steppers import make_step
+from morphogen.solvers.step import make_step
 
 F_TRUE, K_TRUE = 0.037, 0.06
 SIZE, STEPS = 64, 400
@@ -62,7 +64,7 @@ def test_gradient_fitting_recovers_gray_scott_f_and_k(gray_scott_target):
 
 def test_evaluator_gradient_equals_a_plain_scan(gray_scott_target):
     """The chunk-rematerialised, vmapped evaluator gives the gradient that jax.grad gives
-    through a plain lax.scan of the same steps (morphogen.simulate.integrate).
+    through a plain lax.scan of the same steps (morphogen.engine.simulate.integrate).
 
     (A finite difference is no reference here: the texture loss of a pattern is piecewise
     smooth with kinks finer than any usable step, so central differences of it depend on the

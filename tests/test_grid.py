@@ -8,11 +8,11 @@ import pytest
 from core_models import pure_diffusion
 
 from morphogen.domains.grid import Boundary, Grid
+from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError, UnstableTimeStepError
 from morphogen.models.model import Tensor
-from morphogen.simulate import simulate
-from morphogen.stability import amplification
-from morphogen.steppers import check_stability, max_stable_dt
+from morphogen.solvers.stability import amplification
+from morphogen.solvers.step import check_stability, max_stable_dt
 
 
 def _symbol(stencil: int, k: tuple[float, ...]) -> float:

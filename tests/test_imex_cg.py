@@ -1,4 +1,5 @@
-"""IMEX with conjugate-gradient diffusion solves (morphogen/imex_cg.py): meshes, and varying,
+"""IMEX with conjugate-gradient diffusion solves (morphogen/solvers/imex_cg.py): meshes, and
+varying,
 anisotropic or Dirichlet diffusion on grids. Small meshes and grids, few compiled programs (each
 CG step compiles in 1-4 s, so tests share models, domains and step counts)."""
 
@@ -11,17 +12,17 @@ import pytest
 import scipy.linalg
 import trimesh
 
-from morphogen.autoscheme import choose_scheme, fourier_solves
 from morphogen.domains.grid import Grid
 from morphogen.domains.mesh import Mesh
+from morphogen.engine.simulate import integrate, simulate, simulate_batch
 from morphogen.errors import MorphogenError
 from morphogen.flowers.planar import lattice_mesh
-from morphogen.imex import amplification
-from morphogen.models.equations import load_model
 from morphogen.models.model import Model, Tensor
-from morphogen.simulate import integrate, simulate, simulate_batch
-from morphogen.stability import SAFETY_IMPLICIT
-from morphogen.steppers import batch_params, make_step, max_stable_dt
+from morphogen.models.registry import load_model
+from morphogen.solvers.auto import choose_scheme, fourier_solves
+from morphogen.solvers.imex import amplification
+from morphogen.solvers.stability import SAFETY_IMPLICIT
+from morphogen.solvers.step import batch_params, make_step, max_stable_dt
 
 SCHNAKENBERG = load_model("examples/schnakenberg.toml")
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from morphogen.domains.grid import Grid
+from morphogen.engine.initial import INITIAL_KINDS, make_initial
 from morphogen.errors import MorphogenError
 from morphogen.flowers.planar import lattice_mesh
-from morphogen.initial import INITIAL_KINDS, make_initial
 from morphogen.models.library import get_model
 
 GS = get_model("gray-scott")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from morphogen.errors import MorphogenError
-from morphogen.io import atomic_open, ensure_writable_dir, write_json, write_npz
+from morphogen.util.io import atomic_open, ensure_writable_dir, write_json, write_npz
 
 
 def test_failed_write_leaves_old_file_and_no_temp(tmp_path):

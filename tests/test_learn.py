@@ -180,7 +180,7 @@ def test_pool_ageing_advances_the_batch_without_gradient_before_the_rollout():
     value after 8 steps of the still untrained rule (pure diffusion, W1 starts at zero)."""
     from morphogen.learn.rollout import rollout
     from morphogen.learn.train import make_train_step, template_model, training_grid
-    from morphogen.steppers import make_step
+    from morphogen.solvers.step import make_step
 
     config = replace(TINY, pool_size=2, batch_size=2, min_steps=3, max_steps=3, seed_every=1000,
                      age_every=1, age_steps=5)

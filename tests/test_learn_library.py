@@ -10,7 +10,7 @@ import pytest
 
 from morphogen.cli.main import main
 from morphogen.errors import MorphogenError
-from morphogen.learn.library import TARGETS
+from morphogen.learn.train_library import TARGETS
 from morphogen.models import neural_library
 from morphogen.models.library import get_model
 
@@ -74,8 +74,8 @@ def test_the_dots_rule_keeps_its_texture_statistics_from_2000_to_5000_steps():
     from scipy import ndimage
 
     from morphogen.domains.grid import Grid
-    from morphogen.initial import make_initial
-    from morphogen.simulate import simulate
+    from morphogen.engine.initial import make_initial
+    from morphogen.engine.simulate import simulate
 
     model = get_model("neural:dots")
     grid = Grid((32, 32), stencil=9)
@@ -96,7 +96,7 @@ def test_the_dots_rule_keeps_its_texture_statistics_from_2000_to_5000_steps():
 
 
 def test_training_into_a_folder_that_cannot_be_made_fails_before_training(tmp_path):
-    from morphogen.learn.library import library_config, train_rule
+    from morphogen.learn.train_library import library_config, train_rule
 
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
@@ -105,7 +105,7 @@ def test_training_into_a_folder_that_cannot_be_made_fails_before_training(tmp_pa
 
 
 def test_training_creates_the_folder_it_writes_the_rules_into(tmp_path, monkeypatch):
-    from morphogen.learn import library
+    from morphogen.learn import train_library as library
 
     made = []
 

@@ -18,7 +18,7 @@ from morphogen.learn.rollout_neural import batch_step, to_first, to_last
 from morphogen.learn.textures import state_to_rgb, synthetic_texture
 from morphogen.learn.train import TrainConfig, init_state, make_objective, overflow_penalty
 from morphogen.models.neural import NeuralConfig, init_weights, neural_model
-from morphogen.steppers import make_step
+from morphogen.solvers.step import make_step
 
 
 def random_params(config: NeuralConfig, seed: int) -> dict:

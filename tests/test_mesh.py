@@ -10,12 +10,12 @@ import trimesh
 
 from morphogen.domains.grid import Grid
 from morphogen.domains.mesh import Mesh
+from morphogen.engine.simulate import integrate, simulate
 from morphogen.errors import MorphogenError, UnstableTimeStepError
 from morphogen.flowers.planar import grid_mesh, lattice_mesh
 from morphogen.models.library import get_model
 from morphogen.models.model import Model, Tensor
-from morphogen.simulate import integrate, simulate
-from morphogen.steppers import make_step, max_stable_dt
+from morphogen.solvers.step import make_step, max_stable_dt
 
 
 def heat(tensor: bool = False, field: bool = False) -> Model:
@@ -228,8 +228,8 @@ def test_padded_table_with_tail_matches_sparse_product(monkeypatch):
 
 
 def test_batch_on_a_mesh_equals_a_loop():
-    from morphogen.simulate import simulate_batch
-    from morphogen.steppers import batch_params
+    from morphogen.engine.simulate import simulate_batch
+    from morphogen.solvers.step import batch_params
 
     mesh = lattice_mesh(6, 6, spacing=0.5, omega=1e4)
     model = heat()

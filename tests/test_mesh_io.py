@@ -9,10 +9,11 @@ import pytest
 import trimesh
 from plyfile import PlyData
 
+from morphogen.domains.ply import apply_fields, load_mesh, ply_fields, save_ply
 from morphogen.errors import MorphogenError
 from morphogen.flowers.planar import lattice_mesh
-from morphogen.mesh_io import apply_fields, load_mesh, ply_fields, save_ply, write_mesh_outputs
 from morphogen.models.library import get_model
+from morphogen.render.mesh_outputs import write_mesh_outputs
 
 
 @pytest.fixture

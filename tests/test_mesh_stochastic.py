@@ -7,9 +7,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from morphogen.engine.simulate import simulate
 from morphogen.flowers.planar import lattice_mesh
 from morphogen.models.model import Model
-from morphogen.simulate import simulate
 
 D = 0.5
 DT = 0.05

@@ -6,14 +6,14 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from morphogen.analysis import fastest_mode
 from morphogen.domains.grid import Grid
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError
-from morphogen.initial import make_initial
 from morphogen.models.genrd import coefficient_name
 from morphogen.models.library import LIBRARY, get_model
+from morphogen.models.linear import fastest_mode
 from morphogen.models.network import mass_action
-from morphogen.simulate import simulate
 
 COORDS = {"x": 0.5, "y": 0.5, "z": 0.5, "t": 0.0}
 

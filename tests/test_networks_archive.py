@@ -7,7 +7,8 @@ import jax
 import numpy as np
 
 from morphogen.cli.main import main
-from morphogen.runfile import load_config_model, load_run_file
+from morphogen.runs.config import load_run_file
+from morphogen.runs.prepare import load_config_model
 from morphogen.search.archive import Archive
 from morphogen.search.networks.evolve import load_state
 from morphogen.search.networks.genome import Genome, stack, table2_genome, table2_spec

@@ -5,13 +5,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.domains.grid import Grid
+from morphogen.engine.simulate import integrate
 from morphogen.models.network import yamamoto_activator_inhibitor
 from morphogen.search.networks.cluster import cluster_head_fitness
 from morphogen.search.networks.evolve import Evaluation, evaluate, initial_state, run
 from morphogen.search.networks.genome import stack, table2_genome, table2_spec
 from morphogen.search.networks.operators import Operators
-from morphogen.simulate import integrate
-from morphogen.steppers import make_step
+from morphogen.solvers.step import make_step
 
 EV = Evaluation(size=12, dt=0.5, t_start=20.0, interval=10.0, rounds=2)
 

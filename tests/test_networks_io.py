@@ -9,14 +9,15 @@ import pytest
 
 from morphogen.cli.main import main
 from morphogen.errors import MorphogenError
-from morphogen.models.equations import load_model, parse_model
 from morphogen.models.network import (
     ReactionNetwork,
     to_toml,
     yamamoto_activator_inhibitor,
     yamamoto_network,
 )
-from morphogen.models.sbml import read_antimony, read_sbml, to_antimony, to_sbml
+from morphogen.models.registry import load_model
+from morphogen.models.text.equations import parse_model
+from morphogen.models.text.sbml import read_antimony, read_sbml, to_antimony, to_sbml
 from morphogen.search.networks.draw import draw_network, reaction_graph
 from morphogen.search.networks.evolve import Evaluation, save_state
 from morphogen.search.networks.export import genome_network, run_network, table2_network

@@ -10,6 +10,7 @@ import pytest
 
 from morphogen.cli.main import main
 from morphogen.domains.grid import Grid
+from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError
 from morphogen.models.neural import (
     KERNEL_SCALE,
@@ -21,8 +22,7 @@ from morphogen.models.neural import (
     read_neural_file,
     save_neural_model,
 )
-from morphogen.simulate import simulate
-from morphogen.steppers import make_step
+from morphogen.solvers.step import make_step
 
 
 def random_weights(config: NeuralConfig, seed: int = 0, scale: float = 0.1) -> dict:

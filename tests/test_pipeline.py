@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from morphogen.cli.main import main
+from morphogen.domains.ply import load_mesh
+from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError
 from morphogen.flowers import petal, positional_information
-from morphogen.mesh_io import load_mesh
+from morphogen.flowers.pipeline import load_pipeline, run_pipeline
 from morphogen.models.library import get_model
-from morphogen.pipeline import load_pipeline, run_pipeline
-from morphogen.simulate import simulate
 
 PIPELINE = """
 seed = 3

@@ -67,7 +67,7 @@ def test_map_elites_on_ray_equals_the_local_run(local_ray, tmp_path):
 
 
 def test_network_batches_on_ray_equal_the_local_evaluation_and_run(local_ray, tmp_path):
-    from morphogen.search.networks.executors import RayNetworkEvaluator
+    from morphogen.search.networks.ray_workers import RayNetworkEvaluator
 
     spec = table2_spec()
     g = table2_genome(spec)

@@ -6,18 +6,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from morphogen.atlas import Axis, compute_atlas
-from morphogen.autoscheme import population_scheme
 from morphogen.cli import options
 from morphogen.cli.main import main
 from morphogen.domains.grid import Grid
+from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError
-from morphogen.models.equations import load_model
 from morphogen.models.library import get_model
+from morphogen.models.registry import load_model
+from morphogen.runs.atlas import Axis, compute_atlas
 from morphogen.search.evaluate import Evaluator, Problem
 from morphogen.search.genes import preset_genes
-from morphogen.simulate import simulate
-from morphogen.steppers import RUN_SCHEMES, SCHEMES
+from morphogen.solvers.auto import population_scheme
+from morphogen.solvers.step import RUN_SCHEMES, SCHEMES
 
 SCHNAKENBERG = "examples/schnakenberg.toml"
 

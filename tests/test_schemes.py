@@ -9,14 +9,14 @@ import pytest
 from core_models import pure_diffusion
 
 from morphogen.domains.grid import Grid
+from morphogen.engine.simulate import integrate, simulate
 from morphogen.errors import MorphogenError
-from morphogen.etd import phi_coefficients
-from morphogen.imex import amplification
-from morphogen.models.equations import load_model
 from morphogen.models.model import Model
-from morphogen.simulate import integrate, simulate
-from morphogen.stability import SAFETY_IMPLICIT
-from morphogen.steppers import make_step, max_stable_dt
+from morphogen.models.registry import load_model
+from morphogen.solvers.etd import phi_coefficients
+from morphogen.solvers.imex import amplification
+from morphogen.solvers.stability import SAFETY_IMPLICIT
+from morphogen.solvers.step import make_step, max_stable_dt
 
 
 def _mode(shape, m, mirror):

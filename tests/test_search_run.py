@@ -14,7 +14,9 @@ import numpy as np
 import pytest
 
 from morphogen.cli.main import main
-from morphogen.runfile import load_run_file, prepare, run_prepared
+from morphogen.runs.config import load_run_file
+from morphogen.runs.execute import run_prepared
+from morphogen.runs.prepare import prepare
 from morphogen.search.archive import Archive
 from morphogen.search.evaluate import Problem, individual_keys
 from morphogen.search.executors import LocalExecutor

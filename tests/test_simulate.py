@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 from core_models import pure_diffusion
 
-from morphogen.analysis import fastest_mode
 from morphogen.domains.grid import Grid
+from morphogen.engine.fields import resolve_params
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import integrate, simulate, simulate_batch
 from morphogen.errors import BlowUpError
-from morphogen.fields import resolve_params
-from morphogen.initial import make_initial
 from morphogen.models.library import get_model
+from morphogen.models.linear import fastest_mode
 from morphogen.models.model import Model
-from morphogen.simulate import integrate, simulate, simulate_batch
-from morphogen.steppers import Noise, batch_params, make_step
+from morphogen.solvers.step import Noise, batch_params, make_step
 
 
 def test_gray_scott_forms_a_pattern_only_when_perturbed():

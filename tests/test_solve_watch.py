@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from morphogen import imex_cg
 from morphogen.domains.mesh import Mesh
+from morphogen.engine.simulate import simulate
+from morphogen.engine.solve_watch import REPORT_RATIO, SolveWatch
 from morphogen.errors import MorphogenWarning
-from morphogen.simulate import simulate
-from morphogen.solve_watch import REPORT_RATIO, SolveWatch
+from morphogen.solvers import imex_cg
 from tests.test_imex_cg import linear
 
 P = {"k": np.float32(0.0), "D": np.float32(0.5)}

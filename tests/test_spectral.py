@@ -9,12 +9,14 @@ from core_models import pure_diffusion
 from morphogen.cli.main import main
 from morphogen.domains import spectral
 from morphogen.domains.grid import Boundary, Grid
+from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError
-from morphogen.imex import amplification
-from morphogen.runfile import RunConfig, prepare, run_prepared
-from morphogen.simulate import simulate
-from morphogen.stability import SAFETY
-from morphogen.steppers import max_stable_dt
+from morphogen.runs.config import RunConfig
+from morphogen.runs.execute import run_prepared
+from morphogen.runs.prepare import prepare
+from morphogen.solvers.imex import amplification
+from morphogen.solvers.stability import SAFETY
+from morphogen.solvers.step import max_stable_dt
 
 D = 0.7
 

@@ -8,12 +8,12 @@ import pytest
 from core_models import pure_diffusion
 
 from morphogen.domains.grid import Grid
+from morphogen.engine.simulate import simulate
 from morphogen.errors import DivergenceError, UnstableTimeStepError
-from morphogen.models.equations import load_model
 from morphogen.models.model import Model
-from morphogen.simulate import simulate
-from morphogen.stability import SAFETY, ray_limit
-from morphogen.steppers import batch_params, check_stability, max_stable_dt
+from morphogen.models.registry import load_model
+from morphogen.solvers.stability import SAFETY, ray_limit
+from morphogen.solvers.step import batch_params, check_stability, max_stable_dt
 
 
 def _decay(k: float) -> Model:

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from morphogen.cli.main import main
+from morphogen.domains.ply import load_mesh, save_ply
 from morphogen.errors import MorphogenError
 from morphogen.flowers import corolla, space_colonisation, vein_fields
-from morphogen.mesh_io import load_mesh, save_ply
-from morphogen.pipeline import run_pipeline
+from morphogen.flowers.pipeline import run_pipeline
 
 PIPELINE = """
 seed = 5
@@ -86,7 +86,7 @@ def test_mesh_veins_command(tmp_path, capsys):
 
 
 def test_platycodon_example_at_reduced_size(tmp_path):
-    from morphogen.pipeline import load_pipeline
+    from morphogen.flowers.pipeline import load_pipeline
 
     spec = load_pipeline("examples/flowers/platycodon.toml")
     spec["mesh"]["edge"] = 0.04
@@ -107,7 +107,7 @@ def test_platycodon_example_at_reduced_size(tmp_path):
 
 
 def test_dianthus_example_at_reduced_size(tmp_path):
-    from morphogen.pipeline import load_pipeline
+    from morphogen.flowers.pipeline import load_pipeline
 
     spec = load_pipeline("examples/flowers/dianthus.toml")
     spec["mesh"]["edge"] = 0.175  # final units (scale 5)

@@ -12,10 +12,10 @@ from web_support import finished, poll_job
 
 from morphogen.cli.main import main as cli
 from morphogen.domains.grid import Grid
-from morphogen.initial import make_initial
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import simulate
 from morphogen.models import neural_library
 from morphogen.models.library import LIBRARY, get_model
-from morphogen.simulate import simulate
 from morphogen.web.app import create_app
 from morphogen.web.explore import HEADER
 from morphogen.web.limits import Limits, WorkTimeout, run_limited
@@ -388,7 +388,7 @@ def _mesh_job(client, body):
 def test_mesh_modelling_loop_paints_continues_and_writes_the_pipeline_files(client, tmp_path):
     """Ringham §3.3: a painted production field reaches the PLY as a named vertex field, a
     painted source sets the start there, and a continued run starts from the last state."""
-    from morphogen.mesh_io import load_mesh, ply_fields
+    from morphogen.domains.ply import load_mesh, ply_fields
 
     base = {"shape": "petal", "size": 30, "steps": 8, "model": {"library": "gray-scott"}}
     painted = list(range(0, 40, 3))

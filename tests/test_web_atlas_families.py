@@ -8,11 +8,11 @@ import pytest
 from fastapi.testclient import TestClient
 from web_support import finished, poll_job
 
-from morphogen.atlas import Axis, classify_atlas, compute_atlas, write_families
 from morphogen.domains.grid import Grid
 from morphogen.models.library import get_model
 from morphogen.patterns.classify import COLOURS
 from morphogen.render.colour import parse_colour
+from morphogen.runs.atlas import Axis, classify_atlas, compute_atlas, write_families
 from morphogen.web.app import create_app
 
 BODY = {"x": {"name": "k", "lo": 0.05, "hi": 0.065, "n": 3},

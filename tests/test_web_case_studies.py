@@ -10,10 +10,10 @@ import pytest
 from fastapi.testclient import TestClient
 from web_support import TINY_PETAL, finished, poll_job
 
-from morphogen.mesh_io import load_mesh, ply_fields
-from morphogen.pipeline import load_pipeline, run_pipeline
+from morphogen.domains.ply import load_mesh, ply_fields
+from morphogen.flowers.pipeline import load_pipeline, run_pipeline
 from morphogen.web.app import create_app
-from morphogen.web.case_studies import overall
+from morphogen.web.case_study_routes import overall
 
 
 @pytest.fixture(scope="module")

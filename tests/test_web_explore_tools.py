@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from morphogen.domains.grid import Grid
-from morphogen.initial import make_initial
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import simulate
 from morphogen.models.library import get_model
-from morphogen.simulate import simulate
-from morphogen.steppers import max_stable_dt
+from morphogen.solvers.step import max_stable_dt
 from morphogen.web.recording import colour_table
 from tests.test_web import client, frame, new_session, sim_of  # noqa: F401  (fixture)
 

@@ -13,7 +13,7 @@ import pytest
 
 import morphogen.models.model as model_module
 from morphogen.models.library import get_model
-from morphogen.steppers import max_stable_dt
+from morphogen.solvers.step import max_stable_dt
 from morphogen.web.limits import Limits
 from morphogen.web.live import LiveSim
 

@@ -10,10 +10,10 @@ import pytest
 from fastapi.testclient import TestClient
 
 from morphogen.domains.grid import Grid
-from morphogen.initial import make_initial
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import simulate
 from morphogen.models.library import get_model
-from morphogen.simulate import simulate
-from morphogen.steppers import max_stable_dt
+from morphogen.solvers.step import max_stable_dt
 from morphogen.web.app import create_app
 from morphogen.web.image_input import image_field
 

@@ -53,13 +53,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from morphogen.atlas import Axis, classify_atlas, compute_atlas, write_families
     from morphogen.domains.grid import Grid
-    from morphogen.io import ensure_writable_dir, write_json, write_npz
-    from morphogen.models.equations import load_model
+    from morphogen.models.registry import load_model
     from morphogen.patterns.classify import COLOURS
     from morphogen.render import atlas_image, colour_limits, state_image, write_png
     from morphogen.render.mosaic import frame_tiles
+    from morphogen.runs.atlas import Axis, classify_atlas, compute_atlas, write_families
+    from morphogen.util.io import ensure_writable_dir, write_json, write_npz
 
     model = load_model(args.model)
     x, y = Axis.parse(args.x), Axis.parse(args.y)

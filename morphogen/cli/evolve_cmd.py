@@ -7,7 +7,7 @@ from pathlib import Path
 
 from morphogen.cli import options
 from morphogen.errors import MorphogenError
-from morphogen.models.equations import load_model
+from morphogen.models.registry import load_model
 from morphogen.search.archive import Archive
 from morphogen.search.evaluate import FITNESS_KINDS, Problem
 from morphogen.search.executors import EXECUTORS, make_executor

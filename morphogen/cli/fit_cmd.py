@@ -12,10 +12,8 @@ import numpy as np
 
 from morphogen.cli import options
 from morphogen.errors import MorphogenError
-from morphogen.io import ensure_writable_dir, write_atomic, write_json
-from morphogen.learn.features import EXTRACTORS
-from morphogen.models.equations import load_model
-from morphogen.progress import ProgressBar
+from morphogen.learn.extractors import EXTRACTORS
+from morphogen.models.registry import load_model
 from morphogen.search.evaluate import Problem
 from morphogen.search.genes import Gene, check_genes
 from morphogen.search.gradient import (
@@ -25,6 +23,8 @@ from morphogen.search.gradient import (
     fit,
     target_field_image,
 )
+from morphogen.util.io import ensure_writable_dir, write_atomic, write_json
+from morphogen.util.progress import ProgressBar
 
 
 def register(sub: argparse._SubParsersAction) -> None:

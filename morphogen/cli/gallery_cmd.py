@@ -3,8 +3,8 @@
 Each flower pipeline (Ringham et al. 2021, §4) under ``examples/flowers/*.toml``, plus the two
 older mesh pipelines ``examples/mimulus-mesh-pipeline.toml`` (§4.5) and
 ``examples/kohleria-mesh-pipeline.toml`` (§4.7), is run into ``DIR/NAME/`` with
-:func:`morphogen.pipeline.run_pipeline`; ``DIR/index.html`` shows the last stage's picture of
-each with its name and section. A file that is not a pipeline (a model file such as
+:func:`morphogen.flowers.pipeline.run_pipeline`; ``DIR/index.html`` shows the last stage's picture
+of each with its name and section. A file that is not a pipeline (a model file such as
 ``dianthus-diffusion.toml``, which has no ``[mesh]`` table) is not a flower and is skipped. A
 flower that fails is reported in one line and left off the page; the others still run, and the
 command exits with status 2.
@@ -17,8 +17,8 @@ import sys
 import time
 from pathlib import Path
 
-from morphogen.case_studies import EXAMPLES, Flower, find_flowers
 from morphogen.errors import MorphogenError
+from morphogen.flowers.case_studies import EXAMPLES, Flower, find_flowers
 
 
 def _select(flowers: list[Flower], only: list[str] | None) -> list[Flower]:
@@ -50,9 +50,9 @@ def run_gallery(out: str | Path, *, only: list[str] | None = None, examples: Pat
 
     Returns the page and the one-line errors of the flowers that failed.
     """
-    from morphogen.io import ensure_writable_dir
-    from morphogen.pipeline import load_pipeline, run_pipeline
+    from morphogen.flowers.pipeline import load_pipeline, run_pipeline
     from morphogen.render.gallery import write_gallery
+    from morphogen.util.io import ensure_writable_dir
 
     flowers = _select(find_flowers(Path(examples)), only)
     if not flowers:

@@ -18,8 +18,8 @@ import sys
 import warnings
 from typing import Any, NamedTuple
 
-from morphogen import compile_cache
 from morphogen.errors import MorphogenError, MorphogenWarning
+from morphogen.util import compile_cache
 
 
 class Command(NamedTuple):

@@ -120,7 +120,7 @@ def run_make(args: argparse.Namespace) -> int:
     import inspect
 
     from morphogen import flowers
-    from morphogen.mesh_io import save_ply
+    from morphogen.domains.ply import save_ply
 
     if not args.out.lower().endswith(".ply"):
         raise MorphogenError(f"--out must name a .ply file, got {args.out}")
@@ -157,8 +157,8 @@ def run_make(args: argparse.Namespace) -> int:
 
 
 def run_render(args: argparse.Namespace) -> int:
-    from morphogen.mesh_io import load_mesh, save_ply
-    from morphogen.pipeline import evaluate
+    from morphogen.domains.ply import load_mesh, save_ply
+    from morphogen.flowers.pipeline import evaluate
     from morphogen.render.colour import check_cmap, colourise
     from morphogen.render.images import write_png
     from morphogen.render.mesh import parse_view, render_mesh
@@ -183,7 +183,7 @@ def run_render(args: argparse.Namespace) -> int:
 
 
 def run_info(args: argparse.Namespace) -> int:
-    from morphogen.mesh_io import load_mesh
+    from morphogen.domains.ply import load_mesh
 
     mesh = load_mesh(args.file)
     print(f"{args.file}: {mesh.n_vertices} vertices, {mesh.n_faces} triangles")
@@ -198,11 +198,11 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_veins(args: argparse.Namespace) -> int:
-    from morphogen.io import write_npz
-    from morphogen.mesh_io import load_mesh, save_ply
-    from morphogen.pipeline import grow_veins
+    from morphogen.domains.ply import load_mesh, save_ply
+    from morphogen.flowers.pipeline import grow_veins
     from morphogen.render.colour import colourise
     from morphogen.render.mesh import overlay_veins, parse_view
+    from morphogen.util.io import write_npz
 
     out = Path(args.out)
     if out.suffix.lower() != ".ply":

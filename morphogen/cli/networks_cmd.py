@@ -11,8 +11,8 @@ import numpy as np
 
 from morphogen.cli import networks_export_cmd
 from morphogen.errors import MorphogenError
-from morphogen.io import ensure_writable_dir, write_atomic, write_json
-from morphogen.progress import ProgressBar
+from morphogen.util.io import ensure_writable_dir, write_atomic, write_json
+from morphogen.util.progress import ProgressBar
 
 DEFAULTS = {"mode": "rates", "population": 150, "generations": 100, "seed": 0, "size": 32,
             "dt": 0.1, "t_start": 2000.0, "interval": 200.0, "rounds": 10, "m_max": 12,
@@ -109,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
             "seed": args.seed, "spec": asdict(spec), "ops": asdict(ops), "ev": asdict(ev)})
     evaluator = None
     if args.executor == "ray":
-        from morphogen.search.networks.executors import RayNetworkEvaluator
+        from morphogen.search.networks.ray_workers import RayNetworkEvaluator
 
         evaluator = RayNetworkEvaluator(address=args.address, batches=args.batches)
     recorder = record.Recorder(archive, run_id, Path(out), spec, asdict(ev))

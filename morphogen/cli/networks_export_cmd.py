@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
 
         net, genome = yamamoto_network(), False
     elif source.suffix.lower() in NETWORK_FILES and not source.is_dir():
-        from morphogen.models.sbml import read_network_file
+        from morphogen.models.text.sbml import read_network_file
 
         if source.suffix.lower() == ".toml":
             raise MorphogenError("a .toml model file holds equations, not a reaction network; "

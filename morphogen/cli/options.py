@@ -15,8 +15,8 @@ from morphogen.errors import MorphogenError
 
 def size(text: str) -> list[int]:
     """``256x256`` or ``64x64x64`` -> ``[256, 256]``; every axis a whole number >= 3, and the
-    grid within :mod:`morphogen.guard`'s memory limit for one species."""
-    from morphogen import guard
+    grid within :mod:`morphogen.util.guard`'s memory limit for one species."""
+    from morphogen.util import guard
 
     parts = text.lower().split("x")
     if len(parts) not in (2, 3) or any(len(p.strip()) > 12 for p in parts):
@@ -33,7 +33,7 @@ def size(text: str) -> list[int]:
 
 def assignments(items: list[str] | None, flag: str = "-p") -> dict[str, Any]:
     """``["F=0.03", "k=0.05+0.01*x"]`` -> ``{"F": 0.03, "k": "0.05+0.01*x"}``."""
-    from morphogen.fields import parse_value
+    from morphogen.engine.fields import parse_value
 
     out: dict[str, Any] = {}
     for item in items or []:
@@ -62,12 +62,12 @@ def boundary(items: list[str] | None) -> Any:
 
 
 SCHEMES = ("euler", "rk4", "imex1", "imex", "etdrk4", "adaptive", "auto")
-"""``--scheme`` choices (:data:`morphogen.steppers.SCHEMES` and ``RUN_SCHEMES``), listed here so
+"""``--scheme`` choices (:data:`morphogen.solvers.step.SCHEMES` and ``RUN_SCHEMES``), listed here so
 that building the parser does not import JAX."""
 
 POPULATION_SCHEMES = tuple(s for s in SCHEMES if s != "adaptive")
 """``--scheme`` choices of commands that advance a population with one ``dt`` (search, atlas):
-:func:`morphogen.autoscheme.population_scheme`."""
+:func:`morphogen.solvers.auto.population_scheme`."""
 
 STENCILS = ("5", "7", "9", "spectral")
 """``--stencil`` choices: points of a finite-difference stencil, or the spectral Laplacian."""
@@ -115,7 +115,7 @@ def noise(text: str | None) -> dict[str, Any] | None:
 
 def seed(text: str) -> int:
     """argparse type: a seed, a whole number from 0 to 2**32 - 1 (JAX keys keep 32 bits)."""
-    from morphogen.runschema import SEED_MAX
+    from morphogen.runs.schema import SEED_MAX
 
     try:
         value = int(text)

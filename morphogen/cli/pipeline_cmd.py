@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_pipeline_cmd(args: argparse.Namespace) -> int:
-    from morphogen.pipeline import load_pipeline, run_pipeline
+    from morphogen.flowers.pipeline import load_pipeline, run_pipeline
 
     spec = load_pipeline(args.file)
     progress = not args.quiet and sys.stderr.isatty()

@@ -10,7 +10,7 @@ from morphogen.cli import options
 from morphogen.errors import MorphogenError
 
 if TYPE_CHECKING:
-    from morphogen.runfile import RunConfig
+    from morphogen.runs.config import RunConfig
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -79,7 +79,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def config_from_args(args: argparse.Namespace) -> RunConfig:
     """A :class:`RunConfig` from command-line arguments (or from ``--config``, with flags
     given on the command line taking precedence)."""
-    from morphogen.runfile import RunConfig, load_run_file
+    from morphogen.runs.config import RunConfig, load_run_file
 
     if args.config:
         config = load_run_file(args.config)
@@ -132,7 +132,7 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
 
 
 def run(args: argparse.Namespace) -> int:
-    from morphogen.runfile import execute
+    from morphogen.runs.execute import execute
 
     config = config_from_args(args)
     out = Path(args.out or Path("out") / Path(config.model).stem.replace(":", "-"))

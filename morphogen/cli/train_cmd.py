@@ -8,11 +8,11 @@ from pathlib import Path
 
 from morphogen.cli import options
 from morphogen.errors import MorphogenError
-from morphogen.io import ensure_writable_dir
-from morphogen.learn.features import EXTRACTORS, make_extractor
+from morphogen.learn.extractors import EXTRACTORS, make_extractor
 from morphogen.learn.session import MODEL, load_checkpoint, new_run, resolve_features, train
 from morphogen.learn.textures import SYNTHETIC, load_texture, synthetic_texture
 from morphogen.learn.train import PRESETS, preset
+from morphogen.util.io import ensure_writable_dir
 
 
 def register(sub: argparse._SubParsersAction) -> None:

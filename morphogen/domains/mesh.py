@@ -3,7 +3,7 @@
 A :class:`Mesh` plays the role a :class:`~morphogen.domains.grid.Grid` plays for images: arrays
 on it have shape ``(S, V)`` (one value per species and vertex, in the file's vertex order), and
 it supplies the diffusion operator, boundary conditions and the stability limit, so every model
-(library or equation file) runs on it through :func:`morphogen.simulate.simulate` unchanged.
+(library or equation file) runs on it through :func:`morphogen.engine.simulate.simulate` unchanged.
 
 Boundaries, per species (a spec, or a list of specs applied in order):
 
@@ -366,26 +366,3 @@ def _split_spec(spec: Any) -> tuple[str, float | str, str]:
         except ValueError:
             return "dirichlet", value, where
     return "dirichlet", float(value), where
-
-
-def load_mesh(path: Any, **mesh_args: Any) -> Mesh:
-    """Read a PLY file into a :class:`Mesh` (see :func:`morphogen.mesh_io.load_mesh`)."""
-    from morphogen.mesh_io import load_mesh as load
-
-    return load(path, **mesh_args)
-
-
-def ply_fields(path: Any) -> dict[str, np.ndarray]:
-    """Per-vertex properties of a PLY file (see :func:`morphogen.mesh_io.ply_fields`)."""
-    from morphogen.mesh_io import ply_fields as fields
-
-    return fields(path)
-
-
-def write_mesh_outputs(out_dir: Any, mesh: Mesh, model: Any, state: Any, cmap: Any = "viridis",
-                       name: str = "out", **options: Any) -> list:
-    """``NAME.ply`` and ``NAME.png`` of a final state (see
-    :func:`morphogen.mesh_io.write_mesh_outputs`)."""
-    from morphogen.mesh_io import write_mesh_outputs as write
-
-    return write(out_dir, mesh, model, state, cmap, name, **options)

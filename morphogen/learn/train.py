@@ -54,7 +54,7 @@ from morphogen.learn.rollout_neural import batch_step, rgb_last, to_first, to_la
 from morphogen.learn.seeds import seed_batch, seed_state
 from morphogen.models.model import Array, Model
 from morphogen.models.neural import NeuralConfig, init_weights, neural_model
-from morphogen.steppers import make_step
+from morphogen.solvers.step import make_step
 
 
 @dataclass(frozen=True)

@@ -92,6 +92,9 @@ FUNCTIONS: dict[str, tuple[int, Callable[..., Array], str]] = {
     "lerp": (3, _lerp, "lerp(a, b, t) = a + (b - a)*t"),
     "clip": (3, _jnp("clip"), "clip(x, lo, hi)"),
 }
+
+RESERVED = frozenset(FUNCTIONS) | {"lap", "x", "y", "z", "t"}
+"""Names a parameter or species may not take (functions, ``lap``, coordinates and time)."""
 """Whitelisted functions: name -> (number of arguments, implementation, description)."""
 
 _BINARY = {

@@ -29,6 +29,12 @@ Coords = Mapping[str, Array]
 """Position and time: ``x``, ``y``, ``z`` (arrays broadcastable to the spatial shape) and ``t``."""
 
 
+INITIAL_NAMES = ("uniform", "noise", "square", "blobs", "skaggs", "seeds", "random", "image", "npz")
+"""The initial conditions a model file may suggest with ``init``: the names of the builders in
+:data:`morphogen.engine.initial.INITIAL_KINDS` (kept here so that parsing a model needs no
+engine)."""
+
+
 class Tensor(NamedTuple):
     """A symmetric 2D diffusion tensor field ``[[xx, xy], [xy, yy]]`` (each scalar or field)."""
 
@@ -65,7 +71,7 @@ class Model:
         source: the model file text, for models parsed from a file (so runs can be reproduced).
         dt: suggested time step (stable on a unit grid with the default parameters).
         t_end: suggested simulated time for the default parameters to form their pattern.
-        init: suggested initial condition kind (see :mod:`morphogen.initial`).
+        init: suggested initial condition kind (see :mod:`morphogen.engine.initial`).
         init_options: options of that kind used unless the run gives its own (e.g. the blob
             density of a neural model's seed states).
         clamp: physical bounds the model itself declares (e.g. non-negative concentrations

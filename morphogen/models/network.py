@@ -139,7 +139,7 @@ class ReactionNetwork:
     init: str = "noise"
 
     def __post_init__(self) -> None:
-        from morphogen.models.equations import RESERVED
+        from morphogen.models.expr import RESERVED
 
         n, m = len(self.species), len(self.reaction_ids)
         me, mp = np.asarray(self.educts), np.asarray(self.products)

@@ -46,8 +46,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.io import write_npz
 from morphogen.models.model import Array, Model, Params
+from morphogen.util.io import write_npz
 
 DIFFUSION_GROUPS = (1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0, 1.0)
 """Fixed per-channel diffusion coefficients, one value per quarter of the channels."""

@@ -13,13 +13,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from morphogen.domains.grid import Grid
-from morphogen.fields import resolve_params
-from morphogen.initial import make_initial
+from morphogen.engine.fields import resolve_params
+from morphogen.engine.initial import make_initial
 from morphogen.models.library import LIBRARY
 from morphogen.patterns.classify import classify
 from morphogen.patterns.descriptors import describe_batch
 from morphogen.patterns.watch import simulate_watched
-from morphogen.steppers import batch_params
+from morphogen.solvers.step import batch_params
 
 EXPECTED = {
     "default": "stripes",

@@ -1,6 +1,6 @@
 """Simulate a batch and keep its last few states: what the temporal descriptors need.
 
-The run is split in two batched calls of :func:`morphogen.simulate.simulate_batch`: the first
+The run is split in two batched calls of :func:`morphogen.engine.simulate.simulate_batch`: the first
 ``steps - count * gap`` steps without snapshots, then ``count * gap`` steps with a snapshot every
 ``gap`` steps, so memory holds ``count + 1`` states per member whatever the run length.
 """
@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from morphogen.engine.simulate import Solution, simulate_batch
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model
-from morphogen.simulate import Solution, simulate_batch
 
 
 def simulate_watched(
@@ -31,7 +31,7 @@ def simulate_watched(
 ) -> tuple[Solution, np.ndarray]:
     """Run ``steps`` steps; return the final solution and snapshots ``(B, count + 1, S, ...)``.
 
-    ``options`` go to :func:`morphogen.simulate.simulate_batch` (``scheme``, ``noise``,
+    ``options`` go to :func:`morphogen.engine.simulate.simulate_batch` (``scheme``, ``noise``,
     ``clamp``, ``progress``, ``unsafe``). A member marked invalid in either part is invalid.
     """
     if count < 1 or gap < 1:

@@ -16,7 +16,7 @@ import imageio.v3 as iio
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.io import atomic_path, ensure_writable_dir, write_atomic
+from morphogen.util.io import atomic_path, ensure_writable_dir, write_atomic
 
 ANIMATION_FORMATS = (".gif", ".mp4")
 """File extensions :func:`write_animation` understands."""

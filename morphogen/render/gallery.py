@@ -14,7 +14,7 @@ from pathlib import Path, PurePosixPath
 from urllib.parse import quote
 
 from morphogen.errors import MorphogenError
-from morphogen.io import ensure_writable_dir, write_atomic
+from morphogen.util.io import ensure_writable_dir, write_atomic
 
 _STYLE = """
 body { margin: 1.5rem; font-family: system-ui, -apple-system, "Segoe UI", sans-serif;

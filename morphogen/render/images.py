@@ -13,9 +13,9 @@ import numpy as np
 from matplotlib.colors import Colormap
 
 from morphogen.errors import MorphogenError
-from morphogen.io import ensure_writable_dir, write_atomic
 from morphogen.render.colour import NAN_COLOUR, colour_limits, colourise
 from morphogen.render.mosaic import mosaic
+from morphogen.util.io import ensure_writable_dir, write_atomic
 
 
 def check_image(rgb: np.ndarray) -> np.ndarray:

@@ -8,7 +8,8 @@ sent to Ray workers and rebuilt anywhere. :class:`Evaluator` turns it into
 
     evaluate(genomes (P, G), key) -> (fitness (P,), metrics)
 
-by running the whole population as one compiled program over :func:`morphogen.simulate.integrate`,
+by running the whole population as one compiled program over
+:func:`morphogen.engine.simulate.integrate`,
 in chunks of steps so a progress bar can move between them. Every individual ``i`` gets its own
 key ``fold_in(key, i)``, so results do not depend on how a population is split into batches.
 
@@ -31,16 +32,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from morphogen.autoscheme import population_scheme
 from morphogen.domains.grid import Grid
+from morphogen.engine.fields import resolve_params
+from morphogen.engine.simulate import integrate
 from morphogen.errors import MorphogenError
-from morphogen.fields import resolve_params
 from morphogen.models.model import Model
 from morphogen.search import fitness as fit
 from morphogen.search.genes import Gene, check_genes
 from morphogen.search.networks.cluster import cluster_head_fitness
-from morphogen.simulate import integrate
-from morphogen.steppers import check_stability, make_step, max_stable_dt
+from morphogen.solvers.auto import population_scheme
+from morphogen.solvers.step import check_stability, make_step, max_stable_dt
 
 FITNESS_KINDS = ("dirichlet", "target", "cluster", "user")
 CHUNK = 250
@@ -52,7 +53,7 @@ class Problem:
     """What to simulate for a genome and how to score it (JSON-serialisable).
 
     The simulation settings have the names and meanings of
-    :class:`morphogen.runfile.RunConfig`, so an individual can be written out as a ``run.json``
+    :class:`morphogen.runs.config.RunConfig`, so an individual can be written out as a ``run.json``
     that ``morphogen simulate --config`` reproduces.
 
     Attributes:
@@ -67,8 +68,8 @@ class Problem:
             advances with one ``dt``); ``clamp`` is ``"model"`` (the model's own bounds),
             ``None`` or ``[lo, hi]`` (Skaggs §3.2 clamps to ``[0, 5]``).
         seed, init, init_options: the initial condition
-            (:func:`morphogen.initial.make_initial`); every individual starts from the same one
-            (up to its own ground state).
+            (:func:`morphogen.engine.initial.make_initial`); every individual starts from the same
+            one (up to its own ground state).
         fitness: one of :data:`FITNESS_KINDS`; ``target`` the image for ``"target"``;
             ``flat_tol`` the relative spread below which a state counts as uniform.
     """
@@ -130,10 +131,10 @@ class Problem:
 def load_problem_model(problem: Problem) -> Model:
     """The problem's model: parsed from the saved source when there is one."""
     if problem.model_source is not None:
-        from morphogen.models.equations import parse_model
+        from morphogen.models.text.equations import parse_model
 
         return parse_model(problem.model_source, path=problem.model)
-    from morphogen.models.equations import load_model
+    from morphogen.models.registry import load_model
 
     return load_model(problem.model)
 
@@ -236,7 +237,7 @@ class Evaluator:
 
     def initial_states(self, genomes: np.ndarray) -> np.ndarray:
         """Initial states ``(P, S, *spatial)``; built once per distinct ground state."""
-        from morphogen.initial import make_initial
+        from morphogen.engine.initial import make_initial
 
         p = self.problem
         cache: dict[bytes, np.ndarray] = {}

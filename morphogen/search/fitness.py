@@ -32,7 +32,7 @@ Array = Any
 INVALID = -1.0
 FLAT = 0.0
 OVERFLOW = 1e15
-"""Magnitude beyond which a value counts as blown up (as in :mod:`morphogen.simulate`)."""
+"""Magnitude beyond which a value counts as blown up (as in :mod:`morphogen.engine.simulate`)."""
 
 HUMAN_LAMBDA = 0.9
 """Share of the total fitness given to the selected individuals (Skaggs eq. 3.9)."""

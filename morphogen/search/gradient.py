@@ -2,7 +2,7 @@
 the simulator (seed 002's differentiable programming, applied to classic models).
 
 The simulator is differentiable (:func:`morphogen.learn.rollout.rollout` over
-:func:`morphogen.steppers.make_step`), so the rotation-invariant texture loss of
+:func:`morphogen.solvers.step.make_step`), so the rotation-invariant texture loss of
 :mod:`morphogen.learn.loss` between the final pattern and a target image has a gradient with
 respect to every parameter. This module offers it through the evolutionary search's interface:
 
@@ -29,13 +29,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.learn.features import make_extractor
+from morphogen.learn.extractors import make_extractor
 from morphogen.learn.loss import TextureLoss, texture_loss
 from morphogen.learn.rollout import rollout
 from morphogen.search.evaluate import Evaluator, Problem
 from morphogen.search.genes import Gene
 from morphogen.search.strategy import Array, State, Strategy
-from morphogen.steppers import make_step
+from morphogen.solvers.step import make_step
 
 IMAGE_CONTRAST = 0.2
 """Standard deviation of a standardised pattern image around grey 0.5."""

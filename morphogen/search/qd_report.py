@@ -34,7 +34,6 @@ from typing import Any
 import jax
 import numpy as np
 
-from morphogen.io import write_atomic, write_json
 from morphogen.search.archive import Archive
 from morphogen.search.cvt import CVTMapElites
 from morphogen.search.evaluate import Problem
@@ -42,6 +41,7 @@ from morphogen.search.fitness import INVALID
 from morphogen.search.mapelites import MapElites, coverage, qd_score
 from morphogen.search.report import individual_run_file
 from morphogen.search.strategy import Evaluate, State, state_from_arrays
+from morphogen.util.io import write_atomic, write_json
 
 QD_OFFSET = INVALID
 """Fitness offset of the QD-score: the lowest staged fitness (an invalid run)."""

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from morphogen.io import write_atomic, write_json
 from morphogen.search.evaluate import Problem
+from morphogen.util.io import write_atomic, write_json
 
 SHEET_TILE = 128
 """Contact-sheet tiles are shrunk to at most this many pixels a side."""
@@ -117,7 +117,7 @@ def write_best(
 ) -> list[Path]:
     """``best/best_K.png`` and ``best/best_K.json`` for the fittest individuals so far.
 
-    The JSON is a ``run.json`` (:mod:`morphogen.runfile`) that ``morphogen simulate --config``
+    The JSON is a ``run.json`` (:mod:`morphogen.runs.config`) that ``morphogen simulate --config``
     runs to reproduce the individual, plus an ``evolved`` record of where it came from.
     """
     out_dir = Path(directory) / "best"
@@ -137,7 +137,7 @@ def write_best(
 
 def individual_run_file(problem: Problem, genome: Sequence[float]) -> dict[str, Any]:
     """A ``run.json`` object for one individual: the problem's settings with its genes set."""
-    from morphogen.runfile import FORMAT, RunConfig
+    from morphogen.runs.config import FORMAT, RunConfig
 
     params = dict(problem.params)
     params.update({g.name: float(v) for g, v in zip(problem.genes, genome, strict=True)})

@@ -23,8 +23,6 @@ import jax
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.io import ensure_writable_dir, write_json
-from morphogen.progress import ProgressBar
 from morphogen.search import qd_report, report
 from morphogen.search.archive import CONFIG, Archive, Generation, new_run_id
 from morphogen.search.cmaes import CMAES
@@ -36,6 +34,8 @@ from morphogen.search.ga import GeneticAlgorithm
 from morphogen.search.gradient import GradientAscent, require_target
 from morphogen.search.mapelites import MapElites
 from morphogen.search.strategy import Strategy, state_from_arrays, state_to_arrays
+from morphogen.util.io import ensure_writable_dir, write_json
+from morphogen.util.progress import ProgressBar
 
 STRATEGIES: dict[str, type[Strategy]] = {
     "ga": GeneticAlgorithm,

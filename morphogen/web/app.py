@@ -22,11 +22,11 @@ from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 
-from morphogen.case_studies import EXAMPLES
 from morphogen.errors import MorphogenError
+from morphogen.flowers.case_studies import EXAMPLES
 from morphogen.web import (
     atlas_routes,
-    case_studies,
+    case_study_routes,
     evolve_routes,
     explore,
     info,
@@ -69,7 +69,7 @@ def create_app(
         warm_up: compile the library models' live frame programs in a background thread at
             start (:mod:`morphogen.web.warmup`), so a model switch need not wait for them.
         examples: the folder whose ``flowers/*.toml`` the Mesh page offers as case studies
-            (:mod:`morphogen.web.case_studies`; the repository's ``examples/`` when ``None``).
+            (:mod:`morphogen.web.case_study_routes`; the repository's ``examples/`` when ``None``).
     """
     @asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -116,7 +116,7 @@ def create_app(
     async def bad_input(request: Request, exc: MorphogenError):
         return JSONResponse({"error": str(exc)}, status_code=400)
 
-    for module in (info, explore, atlas_routes, jobs, evolve_routes, runs_routes, case_studies,
+    for module in (info, explore, atlas_routes, jobs, evolve_routes, runs_routes, case_study_routes,
                    mesh_routes):
         app.include_router(module.router)
 

@@ -1,7 +1,7 @@
 """The Atlas page: a map over two parameters computed as one batched run.
 
 ``POST /api/atlas`` validates the request (its cost is bounded by ``Limits.max_cell_steps``),
-queues a job and returns its id. The job is :func:`morphogen.atlas.compute_atlas`, the same
+queues a job and returns its id. The job is :func:`morphogen.runs.atlas.compute_atlas`, the same
 single batched program as ``morphogen atlas``: every ``(x, y)`` pair is one member of a vmapped
 batch. The tiles share one colour scale (as in the command's mosaic) and are laid out in one
 image without labels: tile ``(i, j)`` (row ``i`` from the top, column ``j``) sits at pixel
@@ -10,9 +10,9 @@ draws the axes itself. Row 0 is the largest ``y`` (``y`` grows upwards, as on a 
 
 With ``"families": true`` the atlas keeps each tile's last states and names its pattern family
 (Richard et al. §5.2.2, fig. 9) with the functions of ``morphogen atlas --classify``:
-:func:`morphogen.atlas.classify_atlas` on the shown species, each tile framed in its family's
+:func:`morphogen.runs.atlas.classify_atlas` on the shown species, each tile framed in its family's
 colour (:data:`morphogen.patterns.classify.COLOURS`) and ``families.csv`` written by
-:func:`morphogen.atlas.write_families`. The temporal descriptors see ``WATCH + 1`` states
+:func:`morphogen.runs.atlas.write_families`. The temporal descriptors see ``WATCH + 1`` states
 ``min(50, steps // WATCH)`` steps apart at the end of the run (the command's default ``4x50``
 when the run has 200 steps or more).
 """
@@ -28,10 +28,10 @@ import imageio.v3 as iio
 import numpy as np
 from fastapi import APIRouter, Request
 
-from morphogen.atlas import Atlas, Axis, classify_atlas, compute_atlas, write_families
 from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
 from morphogen.patterns.classify import COLOURS, FAMILIES, GRID_ENERGY
+from morphogen.runs.atlas import Atlas, Axis, classify_atlas, compute_atlas, write_families
 from morphogen.web import batch
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.jobs import Job, Progress
@@ -157,7 +157,7 @@ def _families(job: Job, atlas: Atlas, labels: np.ndarray,
     """Each tile's family (rows from the top, as the mosaic), the count and colour of every
     family found (in :data:`~morphogen.patterns.classify.FAMILIES` order), and ``families.csv``
     among the job's files, exactly as ``morphogen atlas --classify`` writes it, from
-    :func:`morphogen.atlas.classify_atlas`'s ``(NY, NX)`` labels and descriptors."""
+    :func:`morphogen.runs.atlas.classify_atlas`'s ``(NY, NX)`` labels and descriptors."""
     with tempfile.TemporaryDirectory() as tmp:
         path = write_families(Path(tmp) / "families.csv", atlas, labels, descriptors)
         job.files["families.csv"] = (path.read_bytes(), "text/csv")

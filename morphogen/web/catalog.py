@@ -2,7 +2,8 @@
 
 A *model spec* is the JSON a page sends: ``{"library": "gray-scott"}`` or
 ``{"equations": "<model file text>"}``. Equation text is untrusted (it comes from whoever can
-reach the server), so it goes through :func:`morphogen.models.equations.parse_model` only — an AST
+reach the server), so it goes through :func:`morphogen.models.text.equations.parse_model` only — an
+AST
 whitelist, never ``eval`` — and a payload such as ``__import__('os').system(...)`` is refused with
 the parser's one-line message before anything runs.
 
@@ -94,10 +95,10 @@ def parse_equations(text: str, limits: Limits) -> Model:
     if not text.strip():
         raise MorphogenError("equation text is empty: paste a model file (TOML)")
     try:
-        equations = importlib.import_module("morphogen.models.equations")
+        equations = importlib.import_module("morphogen.models.text.equations")
     except ImportError:
         raise MorphogenError(
-            "pasted equations need morphogen.models.equations, which this installation lacks"
+            "pasted equations need morphogen.models.text.equations, which this installation lacks"
         ) from None
     return equations.parse_model(text)
 

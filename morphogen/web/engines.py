@@ -10,8 +10,8 @@ Newton iteration of :meth:`morphogen.models.model.Model.ground_state` (60 steps 
 ``u <- u - 0.7 J(u)^+ R(u)``, one compiled program per model: 0.2-1.3 s the first time in a
 process, then under a millisecond; run op by op it took 2.3-2.6 s, then 0.3-0.5 s a call), and
 the live view asks for it at every start (the initial condition, the explicit ``dt`` limit of
-:func:`morphogen.stability.linear_limit`) and at every brush point (the ground or excited state
-painted); remembering it leaves one solve per parameter set. FitzHugh-Nagumo and the
+:func:`morphogen.solvers.stability.linear_limit`) and at every brush point (the ground or excited
+state painted); remembering it leaves one solve per parameter set. FitzHugh-Nagumo and the
 activator-inhibitor model of the library have no closed form, nor does a pasted model without
 an ``[initial]`` table.
 """
@@ -30,9 +30,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.domains.grid import Grid
+from morphogen.engine.simulate import OVERFLOW, integrate
 from morphogen.models.model import Model
-from morphogen.simulate import OVERFLOW, integrate
-from morphogen.steppers import make_step
+from morphogen.solvers.step import make_step
 from morphogen.web.brush import painter
 
 ENGINES_SIZE = 12
@@ -47,7 +47,7 @@ class Engine:
 
     Attributes:
         model, grid: what is simulated; scheme: the time stepper's name.
-        step: ``step(u, p, t, dt, key) -> u`` from :func:`morphogen.steppers.make_step`.
+        step: ``step(u, p, t, dt, key) -> u`` from :func:`morphogen.solvers.step.make_step`.
         advance: per steps-per-frame value, the jitted frame program (see :meth:`program`).
         paint: jitted ``paint(u, cx, cy, r, values) -> u``.
     """
@@ -127,7 +127,7 @@ def engine_for(model: Model, key: str, shape: tuple[int, int], boundary: str,
                scheme: str = "euler") -> Engine:
     """The shared :class:`Engine` of a model (by cache key) on an ``(h, w)`` grid with a time
     stepper of :data:`morphogen.web.live.LIVE_SCHEMES` (one the model or boundary cannot take
-    is refused by :func:`morphogen.steppers.make_step` with its one-line reason)."""
+    is refused by :func:`morphogen.solvers.step.make_step` with its one-line reason)."""
     ident = (key, tuple(shape), boundary, scheme)
     with _ENGINES_LOCK:
         if ident in _ENGINES:

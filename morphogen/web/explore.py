@@ -16,9 +16,9 @@ from typing import Any
 from fastapi import APIRouter, Request, WebSocket, WebSocketDisconnect
 from fastapi.responses import JSONResponse, Response
 
-from morphogen import guard
 from morphogen.errors import MorphogenError
-from morphogen.web import export
+from morphogen.util import guard
+from morphogen.web import downloads
 from morphogen.web.image_input import RESAMPLING, decode_png, image_field
 from morphogen.web.limits import JSONBody, OptionalBody, choice, integer, number, run_limited
 from morphogen.web.live import Frame, LiveSim
@@ -288,7 +288,7 @@ async def png(request: Request, sid: str, cmap: str | None = None, scale: int = 
         raise MorphogenError(f"a PNG {side} pixels wide is too large; the server allows "
                              f"{MAX_PNG_SIDE}: choose a scale of at most "
                              f"{max(1, MAX_PNG_SIDE // max(sim.engine.grid.spatial_shape))}")
-    data = export.png_bytes(sim.field(), cmap or sim.cmap, scale)
+    data = downloads.png_bytes(sim.field(), cmap or sim.cmap, scale)
     name = f"{sim.describe()['model']}.png"
     return Response(data, media_type="image/png", headers=_attachment(name))
 
@@ -301,7 +301,7 @@ async def config(request: Request, sid: str, steps: int | None = None):
         cells = math.prod(sim.engine.grid.spatial_shape)
         guard.check_steps(integer(steps, "steps", 1, guard.LIMITS.steps), cells,
                           len(sim.engine.model.species))
-    data = export.run_config(sim, steps)
+    data = downloads.run_config(sim, steps)
     return Response(data, media_type="application/json",
                     headers=_attachment(f"{sim.describe()['model']}-run.json"))
 

@@ -2,9 +2,9 @@
 
 A :class:`LiveSim` holds a state ``u`` of shape ``(S, h, w)`` on a periodic (or no-flux) grid
 and advances it by ``steps`` steps per frame of one of the per-step schemes of
-:mod:`morphogen.steppers` (:data:`LIVE_SCHEMES`: explicit Euler, RK4, IMEX, ETDRK4; see
-docs/schemes.md) with the jitted :func:`morphogen.simulate.integrate`, compiled once per model and
-grid and shared by the tabs (:mod:`morphogen.web.engines`).
+:mod:`morphogen.solvers.step` (:data:`LIVE_SCHEMES`: explicit Euler, RK4, IMEX, ETDRK4; see
+docs/schemes.md) with the jitted :func:`morphogen.engine.simulate.integrate`, compiled once per
+model and grid and shared by the tabs (:mod:`morphogen.web.engines`).
 Parameters, ``dt``, the species shown and the colour scale are *runtime* arguments of the compiled
 program, so moving a slider never recompiles; only the number of steps per frame is static, and it
 is taken from :data:`STEP_CHOICES` so each value compiles once per model and grid.
@@ -26,10 +26,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from morphogen.engine.initial import make_initial
 from morphogen.errors import MorphogenError
-from morphogen.initial import make_initial
 from morphogen.models.model import Model
-from morphogen.steppers import max_stable_dt
+from morphogen.solvers.step import max_stable_dt
 from morphogen.web.brush import brush_values
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.engines import Engine, engine_for, pixels
@@ -42,12 +42,12 @@ STEP_CHOICES = (1, 2, 4, 8, 16, 32, 64, 128, 256)
 
 BOUNDARIES = ("periodic", "neumann")
 LIVE_SCHEMES = ("euler", "rk4", "imex1", "imex", "etdrk4")
-"""Time steppers offered live: those of :data:`morphogen.steppers.SCHEMES` that advance one
+"""Time steppers offered live: those of :data:`morphogen.solvers.step.SCHEMES` that advance one
 fixed step at a time (``adaptive`` chooses its own steps per run, so it is not offered)."""
 UNDO_DEPTH = 10
 """Brush strokes that can be undone (each keeps one copy of the state)."""
 INITIAL_KINDS = ("square", "noise", "blobs", "seeds", "skaggs", "uniform")
-"""Initial conditions offered (those of :mod:`morphogen.initial` that need no file)."""
+"""Initial conditions offered (those of :mod:`morphogen.engine.initial` that need no file)."""
 FRAMES_TO_PATTERN = 200
 """Default steps per frame: the model's suggested run (``t_end / dt``) in about this many
 frames, i.e. about ten seconds at 20 frames/s."""

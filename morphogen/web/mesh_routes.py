@@ -3,19 +3,19 @@
 ``POST /api/mesh`` queues a job that builds a corolla or a single petal
 (:mod:`morphogen.flowers.shapes`), scales it so that one mesh unit is about one grid cell (the
 library's parameters assume ``dx = 1``), simulates a library model on it
-(:func:`morphogen.simulate.simulate` with the mesh as the domain, Ringham et al. §3.4) and
+(:func:`morphogen.engine.simulate.simulate` with the mesh as the domain, Ringham et al. §3.4) and
 returns the vertices, faces and per-vertex colours for the page's rotatable canvas, plus a
 still image from :func:`morphogen.render.mesh.render_mesh`.
 
 It is Ringham et al.'s modelling loop (§3.3, §5) in the browser: a *prepattern* painted on the
 flower is a named vertex field (a species' starting value at its vertices: sources and sinks; or
-a parameter's value there: production) applied by :func:`morphogen.mesh_io.apply_fields`, as a
+a parameter's value there: production) applied by :func:`morphogen.domains.ply.apply_fields`, as a
 PLY field is for the CLI; the simulation runs in segments and each segment's colours are served
 as ``live.bin`` (the flower as ``geometry.json``) while the job runs, so the page watches the
 pattern grow; a request naming an earlier job (``from``) continues its final state with new
 parameters instead of restarting; and the result is downloadable as the ``out.ply`` /
 ``out.png`` pair that
-:func:`morphogen.mesh_io.write_mesh_outputs` writes for ``morphogen pipeline``.
+:func:`morphogen.render.mesh_outputs.write_mesh_outputs` writes for ``morphogen pipeline``.
 """
 
 from __future__ import annotations
@@ -30,11 +30,11 @@ import imageio.v3 as iio
 import numpy as np
 from fastapi import APIRouter, Request
 
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError
-from morphogen.initial import make_initial
 from morphogen.render.colour import colourise
-from morphogen.simulate import simulate
-from morphogen.steppers import max_stable_dt
+from morphogen.solvers.step import max_stable_dt
 from morphogen.web.batch import colour_map
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.jobs import Job, Progress
@@ -120,7 +120,7 @@ def seed_state(u0: np.ndarray, model, fields: dict[str, np.ndarray]) -> np.ndarr
 
 def pipeline_files(mesh, model, state: np.ndarray, cmap: str, species: str) -> dict:
     """``out.ply`` and ``out.png`` exactly as ``morphogen pipeline`` writes a stage's mesh."""
-    from morphogen.mesh_io import write_mesh_outputs
+    from morphogen.render.mesh_outputs import write_mesh_outputs
 
     with tempfile.TemporaryDirectory() as tmp:
         ply, png = write_mesh_outputs(tmp, mesh, model, state, cmap, species=species)
@@ -184,7 +184,7 @@ async def start(request: Request, body: JSONBody):
             "faces": faces.ravel().tolist()}).encode(), "application/json")
         fields = prepattern(paint, model, values, mesh.n_vertices)
         mesh = mesh.replace(fields={k: v for k, v in fields.items() if k in model.params})
-        from morphogen.mesh_io import apply_fields
+        from morphogen.domains.ply import apply_fields
 
         u0 = previous if previous is not None else make_initial(init, model, mesh, values,
                                                                  seed=seed)

@@ -162,12 +162,12 @@ class NetworkRun:
 
     def _show(self, gen: int, pop: Any, fitness: np.ndarray) -> None:
         """Draw the fittest :data:`SHOWN` individuals of generation ``gen``."""
-        from morphogen.io import write_atomic
         from morphogen.models.network import to_toml
         from morphogen.render.images import state_image, write_png
         from morphogen.search.networks.draw import draw_network
         from morphogen.search.networks.export import genome_network
         from morphogen.search.networks.genome import Genome, describe
+        from morphogen.util.io import write_atomic
 
         s = self.settings
         folder = self.out / "web"

@@ -28,8 +28,8 @@ from morphogen.learn.seeds import seed_batch
 from morphogen.learn.session import build_loss
 from morphogen.learn.textures import state_to_rgb, synthetic_texture
 from morphogen.learn.train import preset
-from morphogen.models.equations import load_model
-from morphogen.steppers import make_step
+from morphogen.models.registry import load_model
+from morphogen.solvers.step import make_step
 
 CHECKPOINTS = (1000, 2000, 5000, 10000)
 SIZE = 48

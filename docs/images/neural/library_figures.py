@@ -25,13 +25,13 @@ from pathlib import Path
 import numpy as np
 
 from morphogen.domains.grid import Grid
-from morphogen.initial import make_initial
-from morphogen.learn.library import TARGET_SIZE, TARGETS
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import simulate
 from morphogen.learn.textures import synthetic_texture, to_uint8
+from morphogen.learn.train_library import TARGET_SIZE, TARGETS
 from morphogen.models.library import get_model
 from morphogen.models.neural import rgb_channels
 from morphogen.render import mosaic, upscale, write_png
-from morphogen.simulate import simulate
 
 HERE = Path(__file__).parent
 

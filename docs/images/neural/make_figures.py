@@ -18,11 +18,11 @@ import jax
 import numpy as np
 
 from morphogen.domains.grid import Grid
+from morphogen.engine.simulate import simulate
 from morphogen.learn.seeds import seed_state
 from morphogen.learn.textures import state_to_rgb, to_uint8
 from morphogen.models.neural import load_neural_model
 from morphogen.render import mosaic, upscale, write_png
-from morphogen.simulate import simulate
 
 HERE = Path(__file__).parent
 

@@ -2,9 +2,9 @@
 
 Each rule is ``NAME.npz`` (a :func:`morphogen.models.neural.save_neural_model` file, n = 12
 channels, h = 64 hidden units, ~7 kB) with its training record ``NAME.json`` beside it
-(iterations, wall time, final loss, settings); :mod:`morphogen.learn.library` trains them from
+(iterations, wall time, final loss, settings); :mod:`morphogen.learn.train_library` trains them from
 synthetic targets, reproducibly. ``neural:NAME`` names one wherever a model name is accepted
-(``morphogen simulate``, run files, pipelines, :func:`morphogen.models.equations.load_model`).
+(``morphogen simulate``, run files, pipelines, :func:`morphogen.models.registry.load_model`).
 """
 
 from __future__ import annotations

@@ -38,14 +38,14 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.domains.grid import Grid
+from morphogen.engine.simulate import integrate
 from morphogen.errors import MorphogenError
 from morphogen.search.fitness import INVALID
 from morphogen.search.networks.cluster import S_MAX, cluster_head_fitness
 from morphogen.search.networks.genome import Genome, NetworkSpec
 from morphogen.search.networks.operators import Operators, next_generation, random_population
 from morphogen.search.networks.reaction import genome_params, padded_model
-from morphogen.simulate import integrate
-from morphogen.steppers import make_step
+from morphogen.solvers.step import make_step
 
 Array = Any
 CHECKS = 10

@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.io import write_atomic
 from morphogen.models.network import ReactionNetwork, to_toml
 from morphogen.search.networks.genome import Genome, NetworkSpec, table2_genome, table2_spec
+from morphogen.util.io import write_atomic
 
 FORMATS = ("toml", "antimony", "sbml", "png", "svg")
 """What :func:`write_network` writes."""
@@ -127,7 +127,7 @@ def _model_name(run_dir: Path) -> str:
 
 def network_text(net: ReactionNetwork, fmt: str) -> str:
     """The network as a morphogen model file (``toml``), Antimony or SBML text."""
-    from morphogen.models.sbml import to_antimony, to_sbml
+    from morphogen.models.text.sbml import to_antimony, to_sbml
 
     writers: dict[str, Any] = {"toml": to_toml, "antimony": to_antimony, "sbml": to_sbml}
     if fmt not in writers:

@@ -31,10 +31,10 @@ from typing import Any
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.io import write_json
 from morphogen.search.archive import CONFIG, Archive, Generation, new_run_id
 from morphogen.search.fitness import INVALID
 from morphogen.search.networks.genome import Genome, NetworkSpec, describe
+from morphogen.util.io import write_json
 
 KIND = "networks"
 """``config["kind"]`` of a network-evolution run."""
@@ -193,7 +193,7 @@ def best_run_file(best: dict[str, Any], spec: NetworkSpec, ev: dict[str, Any], r
     """``run.json`` for an archived individual: the exported model file embedded, the
     evaluation's grid, ``dt`` and steps to its last round, a uniform random initial state."""
     from morphogen.models.network import to_toml
-    from morphogen.runfile import FORMAT, RunConfig
+    from morphogen.runs.config import FORMAT, RunConfig
     from morphogen.search.networks.export import genome_network
 
     dt = float(ev["dt"])

@@ -55,7 +55,7 @@ export function currentQuery() {
 }
 
 // settings for Explore.load() from a run file or run record (`run.json`: `{"config": {...}}`,
-// morphogen.runfile) that the command line or the Save button wrote
+// morphogen.runs.runfile) that the command line or the Save button wrote
 export function settingsFromRunFile(data) {
   const c = data?.config;
   if (!c || typeof c !== 'object' || Array.isArray(c)) {

@@ -6,9 +6,11 @@ deterministic right-hand side is
 .. math:: f(u) = R(u, p, x, t) + \\nabla\\cdot(D\\nabla u)
 
 advanced by explicit Euler (the scheme of every seed), classic RK4, or an implicit-explicit
-scheme (``imex1``, ``imex``: diffusion solved exactly in Fourier space, :mod:`morphogen.imex`,
+scheme (``imex1``, ``imex``: diffusion solved exactly in Fourier space,
+:mod:`morphogen.solvers.imex`,
 or by conjugate gradients on meshes and for varying, anisotropic or Dirichlet diffusion,
-:mod:`morphogen.imex_cg`) or the exponential integrator ``etdrk4`` (:mod:`morphogen.etd`).
+:mod:`morphogen.solvers.imex_cg`) or the exponential integrator ``etdrk4``
+(:mod:`morphogen.solvers.etd`).
 Noise is added after the deterministic update, Euler-Maruyama style, whatever the scheme:
 
 - additive: ``u += sigma * sqrt(dt) * xi``
@@ -28,17 +30,17 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError, UnstableTimeStepError
-from morphogen.etd import make_etd_advance
-from morphogen.imex import IMEX_SCHEMES, make_imex_advance
-from morphogen.imex_cg import ImplicitDiffusion
 from morphogen.models.model import Array, Model, Params
-from morphogen.stability import linear_limit
+from morphogen.solvers.etd import make_etd_advance
+from morphogen.solvers.imex import IMEX_SCHEMES, make_imex_advance
+from morphogen.solvers.imex_cg import ImplicitDiffusion
+from morphogen.solvers.stability import linear_limit
 
 EXPLICIT_SCHEMES = ("euler", "rk4")
 SCHEMES = EXPLICIT_SCHEMES + IMEX_SCHEMES + ("etdrk4",)
 RUN_SCHEMES = ("adaptive", "auto")
-"""Schemes resolved per run by :func:`morphogen.simulate.simulate`: error-controlled steps
-(:mod:`morphogen.adaptive`) and the automatic choice (:mod:`morphogen.autoscheme`)."""
+"""Schemes resolved per run by :func:`morphogen.engine.simulate.simulate`: error-controlled steps
+(:mod:`morphogen.solvers.adaptive`) and the automatic choice (:mod:`morphogen.solvers.auto`)."""
 
 
 @dataclass(frozen=True)
@@ -196,9 +198,9 @@ def max_stable_dt(
     ``dx^2 / (2 * dims * D_max)``; in general every decaying eigenvalue ``lambda`` of
     ``J - sigma diag(D)`` (``J`` the reaction Jacobian at the ground state, ``0 <= sigma <=
     rho(L)``) must satisfy ``|R(lambda dt)| <= 1``, and the result keeps a safety margin of
-    :data:`morphogen.stability.SAFETY` below the marginal value (see
-    :mod:`morphogen.stability`). With ``batched`` every parameter has a leading batch axis and
-    the bound is over all members. Anisotropic tensors use their largest eigenvalue.
+    :data:`morphogen.solvers.stability.SAFETY` below the marginal value (see
+    :mod:`morphogen.solvers.stability`). With ``batched`` every parameter has a leading batch axis
+    and the bound is over all members. Anisotropic tensors use their largest eigenvalue.
     ``adaptive`` has no limit (its controller picks the steps): ``inf``.
     """
     if scheme == "adaptive":

@@ -2,7 +2,7 @@
 
 .. code-block:: text
 
-    python -m morphogen.learn.library [--only NAME ...] [--runs DIR]
+    python -m morphogen.learn.train_library [--only NAME ...] [--runs DIR]
 
 trains one rule per target of :data:`TARGETS`, one after the other, on the synthetic textures
 of :func:`morphogen.learn.textures.synthetic_texture` (generated here, nothing downloaded), and
@@ -36,11 +36,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.io import write_atomic
 from morphogen.learn.session import new_run, save_model, train
 from morphogen.learn.textures import synthetic_texture
 from morphogen.learn.train import TrainConfig, TrainState, optimizer, preset
 from morphogen.models.neural import read_neural_file
+from morphogen.util.io import write_atomic
 
 TARGETS: dict[str, str] = {
     "dots": "red dots on a pale ground",
@@ -114,7 +114,7 @@ def train_rule(name: str, runs: Path | None, config: TrainConfig, ship: Path | N
         "cpu_count": os.cpu_count(),
         "initial_weights": str(base) if base is not None else "zero W1 (from scratch)",
         "settings": {k: v for k, v in config.to_dict().items() if k != "vgg_weights"},
-        "command": f"python -m morphogen.learn.library --only {name}",
+        "command": f"python -m morphogen.learn.train_library --only {name}",
     }
     save_model(ship / f"{name}.npz", run)
     text = json.dumps(record, indent=2) + "\n"

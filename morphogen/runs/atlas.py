@@ -17,17 +17,17 @@ from typing import Any
 
 import numpy as np
 
-from morphogen.autoscheme import population_scheme
+from morphogen.engine.fields import resolve_params
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import simulate_batch
 from morphogen.errors import MorphogenError
-from morphogen.fields import resolve_params
-from morphogen.initial import make_initial
-from morphogen.io import write_atomic
 from morphogen.models.model import Model
 from morphogen.patterns.classify import classify
 from morphogen.patterns.descriptors import NAMES, describe_batch
 from morphogen.patterns.watch import simulate_watched
-from morphogen.simulate import simulate_batch
-from morphogen.steppers import batch_params, check_stability
+from morphogen.solvers.auto import population_scheme
+from morphogen.solvers.step import batch_params, check_stability
+from morphogen.util.io import write_atomic
 
 
 @dataclass(frozen=True)
@@ -103,7 +103,7 @@ def compute_atlas(
             coefficient may be an axis).
         watch: ``(count, gap)``: also keep ``count + 1`` states ``gap`` steps apart at the end
             (see :func:`morphogen.patterns.watch.simulate_watched`).
-        options: passed to :func:`morphogen.simulate.simulate_batch` (``noise``, ``clamp``).
+        options: passed to :func:`morphogen.engine.simulate.simulate_batch` (``noise``, ``clamp``).
     """
     if x.name == y.name:
         raise MorphogenError(f"the two atlas axes must be different parameters, both are {x.name}")

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.models.model import Model, Params
+from morphogen.models.model import INITIAL_NAMES, Model, Params
 
 Init = Callable[..., np.ndarray]
 MAX_BLOB_WORK = 5e8
@@ -43,6 +43,9 @@ INITIAL_KINDS: dict[str, Init] = {}
 
 
 def _kind(name: str) -> Callable[[Init], Init]:
+    if name not in INITIAL_NAMES:
+        raise AssertionError(f"initial condition {name!r} is missing from INITIAL_NAMES")
+
     def add(fn: Init) -> Init:
         INITIAL_KINDS[name] = fn
         return fn

@@ -29,14 +29,14 @@ from pathlib import Path
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.io import read_text
 from morphogen.models.model import Model
 from morphogen.models.network import ReactionNetwork, to_toml
+from morphogen.util.io import read_text
 
 ANTIMONY_SUFFIXES = (".ant", ".antimony")
 SBML_SUFFIXES = (".xml", ".sbml")
 SUFFIXES = ANTIMONY_SUFFIXES + SBML_SUFFIXES
-"""File endings :func:`morphogen.models.equations.load_model` reads as networks."""
+"""File endings :func:`morphogen.models.registry.load_model` reads as networks."""
 MAX_STOICHIOMETRY = 100
 """Largest stoichiometric number or rate-law power read (larger ones are refused as typos: a
 mass-action term ``s^100`` already under- or overflows float32 for any ``s`` away from 1)."""

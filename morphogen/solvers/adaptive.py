@@ -3,7 +3,7 @@
 Skaggs §3.2 hand-tunes a fixed ``dt`` per model ("the largest dt which resulted in consistently
 stable simulations", Table 3.3) and Ringham §2.2 (eqs. 2-4) steps forward Euler; here the step
 follows the local error instead. The right-hand side ``f(u) = R(u, p, x, t) + ∇·(D∇u)``
-(:func:`morphogen.steppers.make_rhs`: any grid in 2D or 3D, any mesh, any coefficients; held
+(:func:`morphogen.solvers.step.make_rhs`: any grid in 2D or 3D, any mesh, any coefficients; held
 Dirichlet values get ``f = 0``) is advanced by Tsitouras' 5(4) pair (Tsit5, diffrax's
 ``Tsit5``). Each step ``h`` gives ``u'`` (order 5) and an embedded error estimate ``e``
 (order 4); with
@@ -15,7 +15,8 @@ next step is ``h' = h · clip(0.9 ε_n^{-(β_P + β_I)/5} ε_{n-1}^{β_P/5}, 0.2
 controller (Gustafsson 1991; diffrax's ``PIDController`` with ``β_P = β_I = 0.3``), which keeps
 an explicit pair whose step is limited by stability (stiff diffusion) from alternating between
 accepted and rejected steps. On a stiff model the step settles near the explicit stability
-limit with some rejections; :mod:`morphogen.imex` schemes are then cheaper (``scheme="auto"``).
+limit with some rejections; :mod:`morphogen.solvers.imex` schemes are then cheaper
+(``scheme="auto"``).
 
 Output times do not depend on the step sequence: :func:`simulate_adaptive` integrates from one
 output time to the next, the last step of each segment shortened to land on it exactly, and
@@ -40,12 +41,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from morphogen import guard
 from morphogen.errors import BlowUpError, MorphogenError
 from morphogen.models.model import Array, Model, Params
-from morphogen.progress import ProgressBar
-from morphogen.stability import RANGE_FACTOR, observed_scale
-from morphogen.steppers import Noise, make_rhs
+from morphogen.solvers.stability import RANGE_FACTOR, observed_scale
+from morphogen.solvers.step import Noise, make_rhs
+from morphogen.util import guard
+from morphogen.util.progress import ProgressBar
 
 DEFAULT_RTOL = 1e-3
 """Relative tolerance when none is given."""
@@ -57,7 +58,7 @@ MAX_STEPS = 100_000
 """Default budget of steps (accepted and rejected) for one run."""
 
 OVERFLOW = 1e15
-"""Magnitude beyond which a value counts as blown up (as in :mod:`morphogen.simulate`)."""
+"""Magnitude beyond which a value counts as blown up (as in :mod:`morphogen.engine.simulate`)."""
 
 
 @dataclass
@@ -101,7 +102,7 @@ def check_deterministic(domain: Any, noise: Noise | None) -> None:
 
 def vector_field(model: Model, domain: Any) -> Any:
     """``f(t, u, p)`` for diffrax: the model's right-hand side, zero on held Dirichlet values
-    (:func:`morphogen.steppers.make_rhs`)."""
+    (:func:`morphogen.solvers.step.make_rhs`)."""
     rhs = make_rhs(model, domain)
 
     def f(t: Array, u: Array, p: Params) -> Array:
@@ -169,7 +170,7 @@ def simulate_adaptive(
     Segments end every ``every · dt`` (snapshots, exactly at those times) or every ``250 dt``;
     between segments the state is checked and ``clamp`` applied. Raises a one-line
     :class:`MorphogenError` for noise, a spent step budget, blow-up or (unless ``unsafe``)
-    values :data:`~morphogen.stability.RANGE_FACTOR` beyond the starting scale.
+    values :data:`~morphogen.solvers.stability.RANGE_FACTOR` beyond the starting scale.
     """
     check_tolerances(rtol, atol)
     check_deterministic(domain, noise)

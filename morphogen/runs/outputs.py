@@ -17,7 +17,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from morphogen.io import write_npz
 from morphogen.models.model import Model
 from morphogen.render import (
     colour_limits,
@@ -30,10 +29,12 @@ from morphogen.render import (
     write_animation,
     write_png,
 )
+from morphogen.util.io import write_npz
 
 if TYPE_CHECKING:
-    from morphogen.runfile import Prepared, RunConfig
-    from morphogen.simulate import Solution
+    from morphogen.engine.simulate import Solution
+    from morphogen.runs.config import RunConfig
+    from morphogen.runs.prepare import Prepared
 
 DEFAULT_CMAP = "viridis"
 """Colour map of a species when none is given."""
@@ -49,7 +50,7 @@ def write_outputs(out_dir: Path, prep: Prepared, solution: Solution) -> list[Pat
     own = model.colours if uses_own_colours(model, c) else None
     cmap = c.cmap or DEFAULT_CMAP
     if c.mesh:
-        from morphogen.domains.mesh import write_mesh_outputs
+        from morphogen.render.mesh_outputs import write_mesh_outputs
 
         rgb = None if own is None else to_uint8(own(solution.state))
         written += write_mesh_outputs(out_dir, prep.domain, model, solution.state, cmap,

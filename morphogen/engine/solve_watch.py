@@ -1,7 +1,7 @@
 """Whether the iterative implicit-diffusion solves of an IMEX run converge.
 
-A conjugate-gradient (or BiCGSTAB) solve of :mod:`morphogen.imex_cg` stops at its tolerance or
-after :data:`~morphogen.imex_cg.CG_MAXITER` iterations, whichever comes first; inside the
+A conjugate-gradient (or BiCGSTAB) solve of :mod:`morphogen.solvers.imex_cg` stops at its tolerance
+or after :data:`~morphogen.solvers.imex_cg.CG_MAXITER` iterations, whichever comes first; inside the
 compiled time loop nothing can be reported. So between two compiled chunks, :class:`SolveWatch`
 repeats the first solve of the next step exactly as the step does it — right-hand side
 ``b = u + gamma dt R(u)``, ``c = gamma dt`` (``gamma = 1 - 1/sqrt 2`` for ARS(2,2,2), 1 for
@@ -22,11 +22,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from morphogen import imex_cg
-from morphogen.imex import ARS_GAMMA, IMEX_SCHEMES
-from morphogen.imex_cg import ImplicitDiffusion
 from morphogen.models.model import Array, Model, Params
-from morphogen.steppers import held_mask
+from morphogen.solvers import imex_cg
+from morphogen.solvers.imex import ARS_GAMMA, IMEX_SCHEMES
+from morphogen.solvers.imex_cg import ImplicitDiffusion
+from morphogen.solvers.step import held_mask
 
 REPORT_RATIO = 10.0
 """Residual over the stopping threshold above which an unconverged solve is reported (the

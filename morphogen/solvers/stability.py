@@ -31,8 +31,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.imex import IMEX_SCHEMES, require_spectral_grid
 from morphogen.models.model import Array, Model, Params, Tensor
+from morphogen.solvers.imex import IMEX_SCHEMES, require_spectral_grid
 
 SAFETY = 0.9
 """Fraction of the marginal step that is reported as the largest stable one."""

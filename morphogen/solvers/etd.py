@@ -1,8 +1,8 @@
 """Exponential time differencing: ETDRK4 with diffusion integrated exactly in Fourier space.
 
 For :math:`\\partial_t u = c\\,u + N(u)` mode by mode, with ``c = D lambda(k)`` the diffusion
-coefficient times the grid stencil's own symbol (:mod:`morphogen.imex`) and ``N`` the reaction,
-Cox & Matthews' fourth-order scheme (J. Comput. Phys. 176, 2002, eqs. 26-29) is, with
+coefficient times the grid stencil's own symbol (:mod:`morphogen.solvers.imex`) and ``N`` the
+reaction, Cox & Matthews' fourth-order scheme (J. Comput. Phys. 176, 2002, eqs. 26-29) is, with
 ``h = dt``, ``E = e^{hc}`` and ``E_2 = e^{hc/2}``:
 
 .. math::
@@ -33,8 +33,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.imex import SpectralDiffusion, require_spectral_grid
 from morphogen.models.model import Array, Model, Params
+from morphogen.solvers.imex import SpectralDiffusion, require_spectral_grid
 
 CONTOUR_POINTS = 32
 
@@ -61,8 +61,8 @@ def make_etd_advance(model: Model, domain: Any) -> Callable[..., Array]:
 
     ``coef`` are the per-species exponentials and φ-coefficients, which depend only on ``dt``
     and the (constant) diffusion coefficients; ``advance.invariants(p, t, dt)`` computes them,
-    and :func:`morphogen.simulate.integrate` does so once, before its time loop, instead of at
-    every step (XLA does not lift the contour mean, an array ``M`` times the grid's size, out of
+    and :func:`morphogen.engine.simulate.integrate` does so once, before its time loop, instead of
+    at every step (XLA does not lift the contour mean, an array ``M`` times the grid's size, out of
     the loop by itself: a 128² Schnakenberg step took 170 ms with it inside, 1.2 ms without).
     Without ``coef`` the step computes them itself.
 

@@ -1,7 +1,7 @@
 """Implicit diffusion solved matrix-free by conjugate gradients: IMEX on meshes and on grids
 with spatially varying, anisotropic or Dirichlet diffusion.
 
-The ``imex1`` and ``imex`` (ARS(2,2,2)) steps of :mod:`morphogen.imex` need, per species and
+The ``imex1`` and ``imex`` (ARS(2,2,2)) steps of :mod:`morphogen.solvers.imex` need, per species and
 stage, the solution of
 
 .. math:: (I - c L_D)\\,x = b,\\qquad c = \\gamma\\,dt,
@@ -36,13 +36,13 @@ diagonal (Jacobi). It stops when
 
 with ``tol`` = :data:`CG_RTOL` (float32; :data:`CG_RTOL_X64` in float64), or after
 :data:`CG_MAXITER` iterations (a solve stopped there, far from its tolerance, is reported
-after the run by :mod:`morphogen.solve_watch`). Where the fluxes are conservative (meshes,
+after the run by :mod:`morphogen.engine.solve_watch`). Where the fluxes are conservative (meshes,
 grid tensors) and no value is held, the ``M``-weighted mass is then restored exactly (the true
 solution has ``1^T M x = 1^T M b`` because ``1^T K_D = 0``): a uniform shift of the size of the
 residual.
 (``D(x) L_h`` on grids does not conserve mass, and is left as solved.) Species with constant
 scalar ``D`` and periodic or no-flux grid boundaries keep the exact Fourier solve of
-:mod:`morphogen.imex`.
+:mod:`morphogen.solvers.imex`.
 
 Gradients: every solve is a ``lax.custom_linear_solve``, so reverse mode solves the transposed
 system (from zero, tolerance relative to the cotangent) instead of differentiating the
@@ -61,8 +61,8 @@ import jax.numpy as jnp
 import numpy as np
 from jax.scipy.sparse.linalg import bicgstab
 
-from morphogen.imex import SpectralDiffusion
 from morphogen.models.model import Array, Tensor
+from morphogen.solvers.imex import SpectralDiffusion
 
 CG_RTOL = 1e-5
 """Relative residual at which a float32 solve stops (relative to the diffusion increment)."""

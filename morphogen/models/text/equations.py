@@ -17,7 +17,7 @@ Each equation is the right-hand side of :math:`\\partial_t u_i = R_i + D_i \\nab
 (Skaggs eq. 2.2). It is split into the reaction ``R_i`` (every additive term without ``lap``) and
 the diffusion coefficient ``D_i`` (the sum of the ``coef`` of the terms ``coef*lap(u_i)``; the
 coefficient may read parameters, numbers and ``x, y, z``; see
-:mod:`morphogen.models.equation_terms`). Optional entries: ``description``, ``reference``,
+:mod:`morphogen.models.text.terms`). Optional entries: ``description``, ``reference``,
 ``display``, the run hints ``dt``, ``t_end``, ``init`` and ``clamp``, ``[initial]`` and
 ``[excited]`` (per-species values or expressions of the parameters), ``[presets.NAME]`` and
 ``[anisotropy]`` (a principal direction and two rates, Ringham et al. eq. 18). The text is
@@ -37,48 +37,26 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from morphogen import guard
 from morphogen.errors import MorphogenError
-from morphogen.io import read_text
-from morphogen.models.equation_terms import check_coefficient, principal_tensor, split_equation
-from morphogen.models.expr import FUNCTIONS, Evaluator, ExpressionError, compile_node, parse
-from morphogen.models.model import Array, Model, Params
+from morphogen.models.expr import (
+    RESERVED,
+    Evaluator,
+    ExpressionError,
+    compile_node,
+    parse,
+)
+from morphogen.models.model import INITIAL_NAMES, Array, Model, Params
+from morphogen.models.text.terms import check_coefficient, principal_tensor, split_equation
+from morphogen.util import guard
+from morphogen.util.io import read_text
 
 COORDINATES = ("x", "y", "z")
-RESERVED = frozenset(FUNCTIONS) | {"lap", "x", "y", "z", "t"}
-"""Names a parameter or species may not take."""
 
 KEYS = (
     "name", "species", "description", "reference", "display", "dt", "t_end", "init", "clamp",
     "parameters", "equations", "initial", "excited", "presets", "anisotropy",
 )  # fmt: skip
 """Top-level keys and tables of a model file."""
-
-def load_model(name_or_path: str | os.PathLike) -> Model:
-    """A library model by name, or a model file.
-
-    A path ending in ``.toml`` is parsed, one ending in ``.npz`` is read as a trained neural RD
-    model, one ending in ``.ant``/``.antimony``/``.xml``/``.sbml`` is read as a mass-action
-    network (:mod:`morphogen.models.sbml`); otherwise a library name is looked up, and an
-    existing file of that name is parsed.
-    """
-    text = os.fspath(name_or_path)
-    if text.endswith(".toml"):
-        return load_model_file(text)
-    if text.endswith(".npz"):
-        from morphogen.models.neural import load_neural_model
-
-        return load_neural_model(text)
-    if text.lower().endswith((".ant", ".antimony", ".xml", ".sbml")):
-        from morphogen.models.sbml import load_network_file
-
-        return load_network_file(text)
-    from morphogen.models.library import LIBRARY, get_model
-
-    if text not in LIBRARY and os.path.isfile(text):
-        return load_model_file(text)
-    return get_model(text)
-
 
 def load_model_file(path: str | os.PathLike) -> Model:
     """Read and parse a model file (see :func:`parse_model`)."""
@@ -170,12 +148,10 @@ def _run_hints(data, src) -> dict[str, Any]:
                                 src.locate(None, key))
             out[key] = value
     if "init" in data:
-        from morphogen.initial import INITIAL_KINDS
-
-        if data["init"] not in INITIAL_KINDS:
+        if data["init"] not in INITIAL_NAMES:
             raise src.error(
                 f"init = {data['init']!r} is not an initial condition; use one of "
-                + ", ".join(INITIAL_KINDS), src.locate(None, "init"),
+                + ", ".join(INITIAL_NAMES), src.locate(None, "init"),
             )  # fmt: skip
         out["init"] = data["init"]
     if "clamp" in data:

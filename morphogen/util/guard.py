@@ -5,7 +5,7 @@ holds about ``B·S·N·(K + W)`` numbers of ``b`` bytes (``W`` working copies: t
 RK4 stages, the diffusion fluxes) and does about ``B·S·N·T`` cell updates. Each of these, and
 ``S`` and ``T`` on their own, has a limit; a run beyond one is refused with its estimate and
 the limit, so that a mistyped size or time step fails in a second instead of exhausting memory
-or running for years. The command line, the web app and :func:`morphogen.runfile.prepare`
+or running for years. The command line, the web app and :func:`morphogen.runs.prepare.prepare`
 (the Python API) all call :func:`check_run`.
 """
 

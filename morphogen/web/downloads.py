@@ -20,7 +20,7 @@ def png_bytes(field: np.ndarray, cmap: str, scale: int = 1) -> bytes:
 
 
 def run_config(sim: Any, steps: int | None = None) -> bytes:
-    """The ``run.json`` of a live simulation's settings (:mod:`morphogen.runfile` format).
+    """The ``run.json`` of a live simulation's settings (:mod:`morphogen.runs.config` format).
 
     ``steps`` defaults to the steps taken so far (at least 1000); running the file with
     ``morphogen simulate --config`` starts from the same initial condition and seed, so it
@@ -28,7 +28,7 @@ def run_config(sim: Any, steps: int | None = None) -> bytes:
     inside the file as ``model_source``. A parameter map (an uploaded image) has no place in a
     run file: the file is refused while one is set.
     """
-    from morphogen.runfile import FORMAT
+    from morphogen.runs.config import FORMAT
 
     d = sim.describe()
     if d.get("maps"):

@@ -17,10 +17,10 @@ explicit schemes, so a Fourier mode of pure diffusion decays by the scheme's rat
   ``(I - g dt D L) U = u + g dt R(u)``;
   ``(I - g dt D L) u' = u + dt (d R(u) + (1 - d) R(U)) + (1 - g) dt D L U``.
 
-The step size is then limited by the reaction only (:mod:`morphogen.stability`). Where the
+The step size is then limited by the reaction only (:mod:`morphogen.solvers.stability`). Where the
 solve is not diagonal in Fourier space (meshes, Dirichlet boundaries, spatially varying or
 anisotropic diffusion) the same steps solve it by conjugate gradients
-(:mod:`morphogen.imex_cg`); :func:`make_imex_advance` takes either solver.
+(:mod:`morphogen.solvers.imex_cg`); :func:`make_imex_advance` takes either solver.
 """
 
 from __future__ import annotations
@@ -118,7 +118,7 @@ def make_imex_advance(
 
     ``solver.solve(b, coeffs, c, x0)`` returns ``(I - c L_D)^{-1} b`` per species (``x0``: a
     first guess, the current state): a :class:`SpectralDiffusion` or a
-    :class:`morphogen.imex_cg.ImplicitDiffusion`.
+    :class:`morphogen.solvers.imex_cg.ImplicitDiffusion`.
     """
     bcs = domain.boundaries(model.species)
     coords = {k: jnp.asarray(v) for k, v in domain.coords.items()}

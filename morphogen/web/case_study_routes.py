@@ -2,11 +2,12 @@
 command line runs them.
 
 ``GET /api/mesh/cases`` lists the pipelines ``morphogen gallery flowers`` finds
-(:func:`morphogen.case_studies.find_flowers`: ``examples/flowers/*.toml`` and the two older
+(:func:`morphogen.flowers.case_studies.find_flowers`: ``examples/flowers/*.toml`` and the two older
 mesh pipelines) with their names and §4 sections. ``POST /api/mesh/cases`` ``{"name"}`` reads the
-file (:func:`morphogen.pipeline.load_pipeline`: a bad file is refused at once) and queues a job
-that runs it with :func:`morphogen.pipeline.run_pipeline` into a temporary directory, the same
-stages and outputs as ``morphogen pipeline run``. Progress comes from the pipeline's ``report``
+file (:func:`morphogen.flowers.pipeline.load_pipeline`: a bad file is refused at once) and queues a
+job
+that runs it with :func:`morphogen.flowers.pipeline.run_pipeline` into a temporary directory, the
+same stages and outputs as ``morphogen pipeline run``. Progress comes from the pipeline's ``report``
 calls: stage ``k`` of ``n``, the share of that stage done, and an overall share in which each
 simulation stage counts equally and the other stages (meshing, positional information,
 fields, points, veins: seconds) count nothing, so the job's ETA follows the simulations. A
@@ -40,7 +41,7 @@ router = APIRouter(prefix="/api/mesh/cases")
 
 
 def _flowers(request: Request) -> list:
-    from morphogen.case_studies import find_flowers
+    from morphogen.flowers.case_studies import find_flowers
 
     return find_flowers(request.app.state.examples)
 
@@ -69,7 +70,7 @@ def _last_picture(out: Path) -> Path:
 def _coloured_ply(out: Path, shown: Path) -> tuple[Path, np.ndarray]:
     """``final.ply`` and its vertex colours ``(V, 3)`` uint8, or the picture stage's own
     ``out.ply`` when the last stage left ``final.ply`` uncoloured."""
-    from morphogen.mesh_io import ply_fields
+    from morphogen.domains.ply import ply_fields
 
     for path in (out / "final.ply", shown / "out.ply"):
         fields = ply_fields(path) if path.is_file() else {}
@@ -90,7 +91,7 @@ async def cases(request: Request) -> dict[str, Any]:
 @router.post("")
 async def start(request: Request, body: JSONBody) -> dict[str, str]:
     """Queue the case study ``body["name"]``; returns ``{"job": id}``."""
-    from morphogen.pipeline import load_pipeline
+    from morphogen.flowers.pipeline import load_pipeline
 
     flowers = {f.name: f for f in _flowers(request)}
     name = body.get("name")
@@ -101,7 +102,7 @@ async def start(request: Request, body: JSONBody) -> dict[str, str]:
     kinds = [stage["kind"] for stage in spec["stage"]]
 
     def work(job: Job, progress: Progress) -> dict[str, Any]:
-        from morphogen.pipeline import run_pipeline
+        from morphogen.flowers.pipeline import run_pipeline
 
         progress(0.0, f"{flower.caption}: building the mesh")
         started = time.perf_counter()

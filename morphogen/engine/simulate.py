@@ -5,8 +5,8 @@
   take snapshots, update the progress bar and check for blow-up (NaN, Inf or overflow), which
   is reported with the step and species, never silently clamped. Unless ``unsafe``, they also
   stop a run that is diverging before it overflows (a growing checkerboard mode, values far
-  outside the starting range; :func:`morphogen.stability.divergence_flags`), with a suggested
-  ``dt``.
+  outside the starting range; :func:`morphogen.solvers.stability.divergence_flags`), with a
+  suggested ``dt``.
 """
 
 from __future__ import annotations
@@ -22,13 +22,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from morphogen.autoscheme import choose_scheme
+from morphogen.engine.solve_watch import SolveWatch
 from morphogen.errors import BlowUpError, DivergenceError, MorphogenError, MorphogenWarning
 from morphogen.models.model import Array, Model, Params
-from morphogen.progress import ProgressBar
-from morphogen.solve_watch import SolveWatch
-from morphogen.stability import IMPLICIT_DIFFUSION, divergence_flags, observed_scale
-from morphogen.steppers import Noise, check_stability, make_step, max_stable_dt
+from morphogen.solvers.auto import choose_scheme
+from morphogen.solvers.stability import IMPLICIT_DIFFUSION, divergence_flags, observed_scale
+from morphogen.solvers.step import Noise, check_stability, make_step, max_stable_dt
+from morphogen.util.progress import ProgressBar
 
 OVERFLOW = 1e15
 """Magnitude beyond which a value counts as blown up."""
@@ -134,7 +134,7 @@ class Solution:
             counts the accepted ones).
         snapshot_times: the time of each snapshot.
         warnings: one line per problem that did not stop the run (an implicit solve that
-            stopped at its iteration cap: :mod:`morphogen.solve_watch`).
+            stopped at its iteration cap: :mod:`morphogen.engine.solve_watch`).
     """
 
     state: np.ndarray
@@ -181,10 +181,10 @@ def simulate(
             bounded by ``max_snapshots`` (older snapshots are thinned to every other one).
         unsafe: skip the stability check and the early divergence detection (NaN, Inf and
             overflow are still reported).
-        scheme: a fixed-step scheme (:data:`morphogen.steppers.SCHEMES`), ``auto``
-            (:func:`morphogen.autoscheme.choose_scheme`) or ``adaptive``
-            (:mod:`morphogen.adaptive`: error control by ``rtol``/``atol``, ``dt`` is the first
-            step and ``steps * dt`` the end time).
+        scheme: a fixed-step scheme (:data:`morphogen.solvers.step.SCHEMES`), ``auto``
+            (:func:`morphogen.solvers.auto.choose_scheme`) or ``adaptive``
+            (:mod:`morphogen.solvers.adaptive`: error control by ``rtol``/``atol``, ``dt`` is the
+            first step and ``steps * dt`` the end time).
         on_chunk: called with ``n`` after each compiled chunk of ``n`` steps (fixed-step
             schemes); an exception it raises stops the run there (a server's cancel button).
 
@@ -223,7 +223,7 @@ def simulate_batch(
     members sized by :func:`batch_block`, which measures faster there).
 
     ``u0`` has shape ``(B, S, *spatial)`` and every parameter a leading axis ``B`` (see
-    :func:`morphogen.steppers.batch_params`). Members that blow up do not stop the run: they
+    :func:`morphogen.solvers.step.batch_params`). Members that blow up do not stop the run: they
     are marked in ``Solution.valid`` (search strategies score them worst). ``on_chunk(n)`` is
     called after each compiled chunk of ``n`` steps; an exception it raises stops the run there
     (a server's cancel button).
@@ -330,14 +330,14 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
 
 def _adaptive(model, domain, u, p, *, batched: bool, steps: int, dt: float, scheme: str,
               rtol, atol, start: float, clamp, **options) -> Solution:
-    """``scheme="adaptive"``: error-controlled steps (:mod:`morphogen.adaptive`)."""
+    """``scheme="adaptive"``: error-controlled steps (:mod:`morphogen.solvers.adaptive`)."""
     if scheme != "adaptive":
         raise MorphogenError(f"--rtol/--atol control --scheme adaptive, not {scheme}; drop "
                              "them or use --scheme adaptive")
     if batched:
         raise MorphogenError("scheme adaptive runs one state at a time (simulate); use euler, "
                              "rk4, imex or etdrk4 for a batch")
-    from morphogen.adaptive import DEFAULT_ATOL, DEFAULT_RTOL, simulate_adaptive
+    from morphogen.solvers.adaptive import DEFAULT_ATOL, DEFAULT_RTOL, simulate_adaptive
 
     run = simulate_adaptive(
         model, domain, u, p, steps=steps, dt=dt, clamp=tuple(clamp) if clamp else None,
@@ -369,7 +369,7 @@ def _locate_blowup(model, step, u, p, t, dt, key, offset: int, n: int) -> BlowUp
 
 
 class _Watch:
-    """Early divergence detection between chunks (see :mod:`morphogen.stability`)."""
+    """Early divergence detection between chunks (see :mod:`morphogen.solvers.stability`)."""
 
     def __init__(self, model, domain, u0, p, dt: float, scheme: str, batched: bool):
         self.model, self.domain, self.p = model, domain, p

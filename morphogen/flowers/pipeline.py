@@ -67,7 +67,7 @@ import numpy as np
 
 from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
-from morphogen.io import ensure_writable_dir, write_json, write_npz
+from morphogen.util.io import ensure_writable_dir, write_json, write_npz
 
 KINDS = ("positional", "fields", "points", "veins", "simulate")
 _KEYS = {
@@ -119,8 +119,8 @@ def build_mesh(spec: Mapping[str, Any], base: Path = Path(".")) -> Mesh:
     estimated vertex count is absurd is refused before meshing
     (:func:`morphogen.flowers.sizing.make_shape`)."""
     from morphogen import flowers
+    from morphogen.domains.ply import load_mesh
     from morphogen.flowers.sizing import make_shape
-    from morphogen.mesh_io import load_mesh
 
     args = dict(spec)
     scale = args.pop("scale", 1.0)
@@ -176,7 +176,7 @@ def run_pipeline(
     ``report(k, n, share)`` is called as stage ``k`` of ``n`` starts (``share`` 0) and ends
     (1), and in a simulation stage after every compiled chunk of steps (the share of its steps
     done); an exception it raises stops the pipeline there (a server's cancel button)."""
-    from morphogen.mesh_io import save_ply
+    from morphogen.domains.ply import save_ply
 
     spec = load_pipeline(pipeline) if isinstance(pipeline, str | Path) else pipeline
     out_dir = ensure_writable_dir(out)
@@ -323,11 +323,12 @@ def _veins_stage(stage, mesh: Mesh, spec, stage_dir: Path, view: Any, pictures: 
 def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pictures: bool,
                     share: Callable[[float], None] | None = None):
     """One simulation: model, parameters and initial values from fields, then outputs."""
-    from morphogen.initial import make_initial
-    from morphogen.mesh_io import apply_fields, write_mesh_outputs
-    from morphogen.models.equations import load_model
-    from morphogen.simulate import simulate
-    from morphogen.steppers import max_stable_dt
+    from morphogen.domains.ply import apply_fields
+    from morphogen.engine.initial import make_initial
+    from morphogen.engine.simulate import simulate
+    from morphogen.models.registry import load_model
+    from morphogen.render.mesh_outputs import write_mesh_outputs
+    from morphogen.solvers.step import max_stable_dt
 
     if "model" not in stage:
         raise MorphogenError("a simulate stage needs model = NAME or a model file")

@@ -2,10 +2,10 @@
 
 Explicit Euler, the scheme of every seed (Skaggs §3.2 hand-tunes ``dt`` per model, Table 3.3;
 Ringham §2.2 eqs. 2-4 use forward Euler), is limited by diffusion: ``dt_E`` from
-:func:`morphogen.steppers.max_stable_dt`, about ``dx² / (2 d D_max)`` on a ``d``-dimensional
+:func:`morphogen.solvers.step.max_stable_dt`, about ``dx² / (2 d D_max)`` on a ``d``-dimensional
 grid. An IMEX step solves diffusion exactly in Fourier space and is limited by the reaction
 alone: ``dt_R``, the Euler-disc limit of the reaction Jacobian's eigenvalues at the ground state
-with the implicit margin (:data:`morphogen.stability.SAFETY_IMPLICIT`), i.e. the reaction's
+with the implicit margin (:data:`morphogen.solvers.stability.SAFETY_IMPLICIT`), i.e. the reaction's
 time scale. The stiffness ratio
 
 .. math:: s = dt_R / dt_E
@@ -20,7 +20,7 @@ and ``euler`` otherwise. Schnakenberg with ``Dv/Du = 40`` at ``dx = 1`` has ``s 
 ``s ≈ 35.6`` (``imex``); Gray-Scott's defaults ``s ≈ 9.8`` (``euler``).
 
 On meshes, and on grids with Dirichlet boundaries or spatially varying or anisotropic
-diffusion, each implicit solve is a conjugate-gradient iteration (:mod:`morphogen.imex_cg`)
+diffusion, each implicit solve is a conjugate-gradient iteration (:mod:`morphogen.solvers.imex_cg`)
 whose cost grows with the step, so the threshold there is :data:`AUTO_RATIO_CG`.
 """
 
@@ -32,7 +32,7 @@ import jax.numpy as jnp
 
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model, Params, Tensor
-from morphogen.steppers import max_stable_dt
+from morphogen.solvers.step import max_stable_dt
 
 AUTO_RATIO = 25.0
 """Stiffness ratio ``dt_R / dt_E`` above which ``auto`` picks ``imex`` (Fourier solves): above

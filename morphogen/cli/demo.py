@@ -1,6 +1,6 @@
 """The demo gallery (``make demo``): every library model, a growing pattern, an (F, k) atlas.
 
-``python -m morphogen.demo --out out/demo`` writes one PNG per library model at its default
+``python -m morphogen.cli.demo --out out/demo`` writes one PNG per library model at its default
 parameters, a GIF of Gray-Scott growing from blobs, the Gray-Scott (F, k) atlas (compare
 Richard et al. fig. 9 and Pearson's map), and ``index.html`` showing them all.
 """
@@ -13,12 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
-from morphogen.atlas import Axis, compute_atlas
 from morphogen.domains.grid import Grid
-from morphogen.initial import make_initial
-from morphogen.io import ensure_writable_dir
+from morphogen.engine.initial import make_initial
+from morphogen.engine.simulate import simulate
 from morphogen.models.library import LIBRARY, get_model
-from morphogen.outputs import picture
 from morphogen.render import (
     atlas_image,
     colour_limits,
@@ -27,8 +25,10 @@ from morphogen.render import (
     write_gallery,
     write_png,
 )
-from morphogen.simulate import simulate
-from morphogen.steppers import max_stable_dt
+from morphogen.runs.atlas import Axis, compute_atlas
+from morphogen.runs.outputs import picture
+from morphogen.solvers.step import max_stable_dt
+from morphogen.util.io import ensure_writable_dir
 
 CMAPS = ("magma", "viridis", "inferno", "cividis", "plasma")
 

@@ -35,7 +35,7 @@ class NoiseSchema(BaseModel):
 
 
 class RunSchema(BaseModel):
-    """Every field of :class:`morphogen.runfile.RunConfig`."""
+    """Every field of :class:`morphogen.runs.config.RunConfig`."""
 
     model_config = ConfigDict(extra="forbid", strict=True)
     model: Annotated[StrictStr, Field(min_length=1)]

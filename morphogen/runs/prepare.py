@@ -1,0 +1,145 @@
+"""Resolve a :class:`~morphogen.runs.config.RunConfig` into a model, a domain, parameters, an
+initial state, ``dt`` and a step count, checking every setting and the run's cost before
+anything is written."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from morphogen.domains.grid import Grid
+from morphogen.engine.fields import resolve_params
+from morphogen.engine.initial import make_initial
+from morphogen.errors import MorphogenError
+from morphogen.models.model import Model, Tensor
+from morphogen.runs.config import SNAPSHOTS, RunConfig
+from morphogen.runs.schema import validate_config
+from morphogen.solvers.auto import choose_scheme
+from morphogen.solvers.step import max_stable_dt
+from morphogen.util import guard
+
+
+@dataclass
+class Prepared:
+    """A config resolved into objects, ready to run."""
+
+    config: RunConfig
+    model: Model
+    domain: Any
+    params: dict[str, np.ndarray]
+    u0: np.ndarray
+    dt: float
+    steps: int
+
+
+def load_config_model(config: RunConfig) -> Model:
+    """The model of a config: from the embedded file text when present, else by name/path."""
+    from morphogen.models.registry import load_model
+    from morphogen.models.text.equations import parse_model
+
+    if config.model_source is not None:
+        return parse_model(config.model_source, path=config.model)
+    return load_model(config.model)
+
+
+def build_domain(config: RunConfig, model: Model) -> Any:
+    """A :class:`Grid` from ``size``/``dx``/``boundary``/``stencil``, or a mesh from ``mesh``."""
+    if config.mesh:
+        from morphogen.domains.ply import load_mesh
+
+        mesh_args = {} if config.boundary == "periodic" else {"boundary": config.boundary}
+        return load_mesh(config.mesh, **mesh_args)
+    grid = Grid(tuple(config.size), dx=config.dx, boundary=config.boundary,
+                stencil=config.stencil)
+    grid.boundaries(model.species)
+    return grid
+
+
+def prepare(config: RunConfig) -> Prepared:
+    """Validate and resolve everything before any output is written: the settings against
+    :class:`~morphogen.runs.schema.RunSchema`, then the run's cost against
+    :mod:`morphogen.util.guard` (memory before the domain is built, steps once ``dt`` is known)."""
+    validate_config(asdict(config), "run settings")
+    set_precision(config.precision)
+    model = load_config_model(config)
+    itemsize = 8 if config.precision == "float64" else 4
+    if not config.mesh:
+        guard.check_memory(math.prod(config.size), len(model.species), itemsize=itemsize)
+    domain = build_domain(config, model)
+    cells = math.prod(domain.spatial_shape)
+    snapshots = SNAPSHOTS if config.every else 1
+    guard.check_memory(cells, len(model.species), snapshots=snapshots, itemsize=itemsize)
+    values = model.parameters(config.params, preset=config.preset)
+    params = resolve_params(model, domain, values)
+    check_diffusion(model, domain, params)
+    u0 = make_initial(config.init or model.init, model, domain, params, seed=config.seed,
+                      **config.init_options)
+    if config.mesh:
+        u0, params = _mesh_fields(config, model, domain, u0, params)
+    dt = float(config.dt) if config.dt is not None else _default_dt(model, domain, params, config)
+    if config.steps is not None:
+        steps = config.steps
+    else:
+        total = config.time if config.time is not None else model.t_end
+        steps = round(total / dt) if math.isfinite(total / dt) else total / dt
+    steps = guard.check_steps(steps, cells, len(model.species))
+    if config.species is not None:
+        model.species_index(config.species)
+    return Prepared(config, model, domain, params, u0, dt, steps)
+
+
+def check_diffusion(model: Model, domain: Any, params: dict[str, np.ndarray]) -> None:
+    """Refuse a negative diffusion coefficient (or a tensor that is not positive
+    semi-definite, ``xx, yy >= 0`` and ``xx·yy >= xy²``) at ``t = 0``: ``u_t = -|D| Δu`` is
+    backward diffusion, ill-posed, and grows the finest grid modes without bound."""
+    import jax.numpy as jnp
+
+    coords = {**{k: jnp.asarray(v) for k, v in domain.coords.items()}, "t": jnp.asarray(0.0)}
+    coefficients = model.diffusion({k: jnp.asarray(v) for k, v in params.items()}, coords)
+    for s, d in zip(model.species, coefficients, strict=True):
+        if isinstance(d, Tensor):
+            xx, xy, yy = (np.asarray(c, np.float64) for c in d)
+            det = xx * yy - xy**2 + 1e-6 * (xx + yy) ** 2
+            worst = float(np.min(np.minimum(np.minimum(xx, yy), det)))
+        else:
+            worst = float(np.min(np.asarray(d, np.float64)))
+        if not worst >= 0:
+            raise MorphogenError(
+                f"species {s} has a negative or undefined diffusion coefficient ({worst:g}): "
+                "backward diffusion is ill-posed; use coefficients >= 0"
+            )
+
+
+def _mesh_fields(config: RunConfig, model: Model, mesh: Any, u0: np.ndarray,
+                 values: dict[str, Any]) -> tuple[np.ndarray, dict[str, Any]]:
+    """PLY vertex properties named like a species give its initial value (unless ``--init`` is
+    given); those named like a parameter give a per-vertex field (unless ``-p`` sets it)."""
+    from morphogen.domains.ply import apply_fields
+
+    mesh_u0, mesh_values = apply_fields(model, mesh, u0, values)
+    mesh_values.update({k: values[k] for k in config.params})
+    return (u0 if config.init is not None else mesh_u0), mesh_values
+
+
+def set_precision(precision: str) -> None:
+    """``float32`` (the default) or ``float64`` (JAX's x64 mode) for the whole process."""
+    import jax
+
+    if precision not in ("float32", "float64"):
+        raise MorphogenError(f"precision must be float32 or float64, not {precision!r}")
+    jax.config.update("jax_enable_x64", precision == "float64")
+
+
+def _default_dt(model: Model, domain: Any, params: dict, config: RunConfig) -> float:
+    """The model's suggested dt, reduced to 90 % of the stability limit where the domain
+    (a 3D grid, a fine mesh, a larger diffusion) needs it; with ``auto`` choosing a stiff
+    scheme, that scheme's (reaction-limited) limit."""
+    if config.scheme == "auto":
+        scheme = choose_scheme(model, domain, params)
+        if scheme != "euler":
+            return max_stable_dt(model, domain, params, scheme)
+    limit = max_stable_dt(model, domain, params, config.scheme)
+    return float(min(model.dt, 0.9 * limit))

@@ -1,0 +1,1 @@
+"""The web app (``morphogen serve``): FastAPI routes and static pages over the same engine."""
