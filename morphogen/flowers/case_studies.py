@@ -15,7 +15,7 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 """The repository's ``examples/`` directory."""
 
 _EXTRA = ("mimulus-mesh-pipeline.toml", "kohleria-mesh-pipeline.toml")
