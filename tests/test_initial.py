@@ -142,3 +142,10 @@ def test_blobs_on_a_closed_mesh_are_sparse_gaussians_on_the_surface():
     expected = round(float(mesh.areas.sum()) / (16 * mesh.edge_length) ** 2)
     assert 0.0 < (sparse > 0.5).mean() < 3 * expected * np.pi * (1.18 * s) ** 2 / (4 * np.pi)
     assert 1 <= expected <= 20
+
+
+def test_model_files_may_suggest_exactly_the_initial_conditions_the_engine_builds():
+    from morphogen.engine.initial import INITIAL_KINDS
+    from morphogen.models.model import INITIAL_NAMES
+
+    assert tuple(INITIAL_KINDS) == INITIAL_NAMES
