@@ -20,7 +20,7 @@ from morphogen.flowers.planar import lattice_mesh
 from morphogen.models.model import Model, Tensor
 from morphogen.models.registry import load_model
 from morphogen.solvers.auto import choose_scheme, fourier_solves
-from morphogen.solvers.imex import amplification
+from morphogen.solvers.base import stepper
 from morphogen.solvers.stability import SAFETY_IMPLICIT
 from morphogen.solvers.step import batch_params, make_step, max_stable_dt
 
@@ -82,7 +82,8 @@ def test_eigenvectors_decay_by_the_scheme_factor(sphere, eigen):
     p = {"k": 0.0, "D": d}
     assert dt > 30 * max_stable_dt(HEAT, sphere, p)
     factors = (1.0 / (1.0 + dt * d * mu[[2, 40]])) ** steps
-    np.testing.assert_allclose(factors, amplification("imex1", -dt * d * mu[[2, 40]]) ** steps)
+    np.testing.assert_allclose(factors,
+                               stepper("imex1").amplification(-dt * d * mu[[2, 40]]) ** steps)
     assert factors[0] > 0.1 and factors[1] < 0.1 * factors[0]
     u0 = phi[:, 2] + phi[:, 40]
     sol = simulate(HEAT, sphere, u0[None], p, steps=steps, dt=dt, scheme="imex1")

@@ -12,7 +12,8 @@ from morphogen.engine.simulate import simulate
 from morphogen.errors import DivergenceError, UnstableTimeStepError
 from morphogen.models.model import Model
 from morphogen.models.registry import load_model
-from morphogen.solvers.stability import SAFETY, ray_limit
+from morphogen.solvers.base import stepper
+from morphogen.solvers.stability import SAFETY
 from morphogen.solvers.step import batch_params, check_stability, max_stable_dt
 
 
@@ -27,8 +28,9 @@ def _decay(k: float) -> Model:
 
 def test_rk4_real_axis_interval():
     # the RK4 stability region meets the negative real axis at -2.785293563...
-    assert ray_limit("rk4", np.array([-1.0 + 0j]))[0] == pytest.approx(2.7852935634, rel=1e-6)
-    assert ray_limit("euler", np.array([-4.0 + 0j]))[0] == pytest.approx(0.5)
+    assert stepper("rk4").ray_limit(np.array([-1.0 + 0j]))[0] == pytest.approx(2.7852935634,
+                                                                               rel=1e-6)
+    assert stepper("euler").ray_limit(np.array([-4.0 + 0j]))[0] == pytest.approx(0.5)
 
 
 def test_limits_include_the_reaction_and_a_margin():

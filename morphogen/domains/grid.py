@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import Any, ClassVar
 
 import jax.numpy as jnp
 import numpy as np
@@ -77,6 +77,7 @@ class Grid:
             ``"spectral"`` (periodic boundaries only, 2D or 3D).
     """
 
+    kind: ClassVar[str] = "grid"
     shape: tuple[int, ...]
     dx: float = 1.0
     boundary: Any = "periodic"
@@ -168,6 +169,16 @@ class Grid:
         if self.is_spectral:
             return spectral.spectral_radius(self.shape, self.dx)
         return self._stencil.spectral_radius / self.dx**2
+
+    @property
+    def stochastic(self) -> bool:
+        """Diffusion on a grid is deterministic (:meth:`diffusion_noise` is zero)."""
+        return False
+
+    def diffusion_noise(self, u: Array, coeffs: Sequence[Any], bcs: Sequence[Boundary],
+                        dt: Array, key: Array) -> Array:
+        """No flux noise on a grid: zeros, shape ``(S, *shape)``."""
+        return jnp.zeros_like(u)
 
     def symbol(self, *k: np.ndarray) -> np.ndarray:
         """Eigenvalue of the Laplacian on the Fourier mode with angular wavenumbers per cell

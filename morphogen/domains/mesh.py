@@ -31,7 +31,7 @@ import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -88,6 +88,7 @@ class Mesh:
         MorphogenError: for non-manifold or degenerate meshes, or malformed fields.
     """
 
+    kind: ClassVar[str] = "mesh"
     vertices: np.ndarray
     faces: np.ndarray
     boundary: Any = "neumann"

@@ -162,7 +162,7 @@ def _blobs(model, domain, g, e, rng, count: int | None = None, radius: float | N
         raise MorphogenError(f"blob spacing must be a positive number of cells, got {spacing}")
     if sigma is not None and not (np.isfinite(sigma) and sigma > 0):
         raise MorphogenError(f"blob sigma must be a positive number of cells, got {sigma}")
-    on_mesh = hasattr(domain, "areas")
+    on_mesh = domain.kind == "mesh"
     n_cells = int(np.prod(domain.spatial_shape))
     count = 12 if count is None and spacing is None else count
     if spacing is not None:
@@ -193,7 +193,7 @@ def _blobs(model, domain, g, e, rng, count: int | None = None, radius: float | N
 def blob_capacity(domain: Any) -> float:
     """The domain's size in cells for blob densities: cells on a grid, ``A / h^2`` on a mesh
     (surface area over the squared mean edge length)."""
-    if hasattr(domain, "areas"):
+    if domain.kind == "mesh":
         return float(np.sum(domain.areas)) / domain.edge_length**2
     return float(np.prod(domain.spatial_shape))
 

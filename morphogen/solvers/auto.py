@@ -26,12 +26,12 @@ whose cost grows with the step, so the threshold there is :data:`AUTO_RATIO_CG`.
 
 from __future__ import annotations
 
-from typing import Any
-
 import jax.numpy as jnp
 
+from morphogen.domains.base import Domain
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model, Params, Tensor
+from morphogen.solvers.registry import POPULATION, SCHEMES
 from morphogen.solvers.step import max_stable_dt
 
 AUTO_RATIO = 25.0
@@ -49,7 +49,7 @@ STIFF_SCHEME = "imex"
 """The stiff-aware scheme ``auto`` picks: second order and cheaper per step than ETDRK4."""
 
 
-def stiffness_ratio(model: Model, domain: Any, params: Params, *, batched: bool = False
+def stiffness_ratio(model: Model, domain: Domain, params: Params, *, batched: bool = False
                     ) -> float:
     """``dt_R / dt_E``: the reaction-limited (IMEX) step over the explicit Euler limit."""
     explicit = max_stable_dt(model, domain, params, "euler", batched=batched)
@@ -57,11 +57,11 @@ def stiffness_ratio(model: Model, domain: Any, params: Params, *, batched: bool 
     return reaction / explicit
 
 
-def fourier_solves(model: Model, domain: Any, params: Params, *, batched: bool = False
+def fourier_solves(model: Model, domain: Domain, params: Params, *, batched: bool = False
                    ) -> bool:
     """Whether every species' implicit solve is the exact Fourier one: a grid, periodic or
     no-flux boundaries, constant isotropic diffusion."""
-    if not hasattr(domain, "symbol"):
+    if domain.kind != "grid":
         return False
     if any(bc.kind not in ("periodic", "neumann") for bc in domain.boundaries(model.species)):
         return False
@@ -71,7 +71,7 @@ def fourier_solves(model: Model, domain: Any, params: Params, *, batched: bool =
                    for d in model.diffusion(first, coords))
 
 
-def choose_scheme(model: Model, domain: Any, params: Params, *, batched: bool = False) -> str:
+def choose_scheme(model: Model, domain: Domain, params: Params, *, batched: bool = False) -> str:
     """``imex`` when :func:`stiffness_ratio` exceeds :data:`AUTO_RATIO` (Fourier solves) or
     :data:`AUTO_RATIO_CG` (conjugate-gradient solves), else ``euler``."""
     try:
@@ -82,15 +82,15 @@ def choose_scheme(model: Model, domain: Any, params: Params, *, batched: bool = 
     return STIFF_SCHEME if ratio > (AUTO_RATIO if fourier else AUTO_RATIO_CG) else "euler"
 
 
-def population_scheme(scheme: str, model: Model, domain: Any, params: Params, *,
+def population_scheme(scheme: str, model: Model, domain: Domain, params: Params, *,
                       batched: bool = False, where: str = "search") -> str:
     """The fixed-step scheme a population (search, atlas) runs: ``auto`` resolved by
     :func:`choose_scheme` on ``params``, ``adaptive`` refused with a one-line error (each member
     would take its own steps, while a population advances in lock-step with one ``dt``)."""
     if scheme == "auto":
         return choose_scheme(model, domain, params, batched=batched)
-    if scheme == "adaptive":
-        raise MorphogenError(f"scheme adaptive runs one state at a time; {where} advances a "
-                             "population with one dt: use euler, rk4, imex, etdrk4 or auto")
+    if scheme in SCHEMES and not SCHEMES[scheme].population:
+        raise MorphogenError(f"scheme {scheme} runs one state at a time; {where} advances a "
+                             f"population with one dt: use {', '.join(POPULATION)}")
     return scheme
 

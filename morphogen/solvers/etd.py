@@ -1,7 +1,7 @@
 """Exponential time differencing: ETDRK4 with diffusion integrated exactly in Fourier space.
 
 For :math:`\\partial_t u = c\\,u + N(u)` mode by mode, with ``c = D lambda(k)`` the diffusion
-coefficient times the grid stencil's own symbol (:mod:`morphogen.solvers.imex`) and ``N`` the
+coefficient times the grid stencil's own symbol (:mod:`morphogen.solvers.fourier`) and ``N`` the
 reaction, Cox & Matthews' fourth-order scheme (J. Comput. Phys. 176, 2002, eqs. 26-29) is, with
 ``h = dt``, ``E = e^{hc}`` and ``E_2 = e^{hc/2}``:
 
@@ -20,21 +20,22 @@ where ``Q = h phi(hc/2)/2``-type coefficients
 
 are evaluated, as Kassam & Trefethen (SIAM J. Sci. Comput. 26, 2005) do, as means over
 ``M = 32`` points on the unit circle around ``z``, which avoids the cancellation near ``z = 0``.
-Pure diffusion is integrated exactly (``v' = E v``). The step is limited by the reaction only.
+Pure diffusion is integrated exactly (``v' = E v``, :meth:`EtdRk4.amplification`). The step is
+limited by the reaction only.
 """
 
 from __future__ import annotations
-
-from collections.abc import Callable
-from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from morphogen.domains.base import Domain
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Array, Model, Params
-from morphogen.solvers.imex import SpectralDiffusion, require_spectral_grid
+from morphogen.solvers.base import Advance, Stepper
+from morphogen.solvers.fourier import SpectralDiffusion, require_spectral_grid
+from morphogen.solvers.stability import linear_limit
 
 CONTOUR_POINTS = 32
 
@@ -56,15 +57,33 @@ def phi_coefficients(z: Array, h: Array) -> tuple[Array, Array, Array, Array]:
     return q, f1, f2, f3
 
 
-def make_etd_advance(model: Model, domain: Any) -> Callable[..., Array]:
-    """The deterministic update ``advance(u, p, t, dt[, coef]) -> u`` of ETDRK4.
+class EtdRk4(Stepper):
+    """Cox-Matthews ETDRK4 (module docstring)."""
+
+    name = "etdrk4"
+
+    def limit(self, model: Model, domain: Domain, params: Params, *,
+              batched: bool = False) -> float:
+        require_spectral_grid(domain, model.species, self.name)
+        return linear_limit(model, domain, params, None, batched=batched)
+
+    def amplification(self, z: np.ndarray) -> np.ndarray:
+        """Exactly ``e^z`` on a pure-diffusion mode, ``z = dt D lambda(k)``."""
+        return np.exp(np.asarray(z, np.float64))
+
+    def advance(self, model: Model, domain: Domain) -> Advance:
+        return make_etd_advance(model, domain)
+
+
+def make_etd_advance(model: Model, domain: Domain) -> Advance:
+    """The deterministic update ``(u, p, t, dt, coef) -> u`` of ETDRK4.
 
     ``coef`` are the per-species exponentials and φ-coefficients, which depend only on ``dt``
-    and the (constant) diffusion coefficients; ``advance.invariants(p, t, dt)`` computes them,
-    and :func:`morphogen.engine.simulate.integrate` does so once, before its time loop, instead of
-    at every step (XLA does not lift the contour mean, an array ``M`` times the grid's size, out of
-    the loop by itself: a 128² Schnakenberg step took 170 ms with it inside, 1.2 ms without).
-    Without ``coef`` the step computes them itself.
+    and the (constant) diffusion coefficients; the update's ``invariants(p, t, dt)`` computes
+    them, and :func:`morphogen.engine.simulate.integrate` does so once, before its time loop,
+    instead of at every step (XLA does not lift the contour mean, an array ``M`` times the grid's
+    size, out of the loop by itself: a 128² Schnakenberg step took 170 ms with it inside, 1.2 ms
+    without). With ``coef=None`` the step computes them itself.
 
     Raises:
         MorphogenError: a diffusion coefficient changes with ``t`` (the exponentials would be
@@ -85,8 +104,8 @@ def make_etd_advance(model: Model, domain: Any) -> Callable[..., Array]:
             coef.append((jnp.exp(z), jnp.exp(z / 2), *phi_coefficients(z, dt)))
         return coef
 
-    def advance(u: Array, p: Params, t: Array, dt: Array,
-                coef: list[tuple[Array, ...]] | None = None) -> Array:
+    def update(u: Array, p: Params, t: Array, dt: Array,
+               coef: list[tuple[Array, ...]] | None = None) -> Array:
         if coef is None:
             coef = invariants(p, t, dt)
         n = len(coef)
@@ -114,11 +133,10 @@ def make_etd_advance(model: Model, domain: Any) -> Callable[..., Array]:
                for k, vi, n0, n1, n2, n3 in zip(coef, v, nv, na, nb, nc, strict=True)]
         return inv(out)
 
-    advance.invariants = invariants
-    return advance
+    return Advance(update, invariants)
 
 
-def _require_constant_in_time(model: Model, domain: Any) -> None:
+def _require_constant_in_time(model: Model, domain: Domain) -> None:
     """Refuse diffusion coefficients that change with ``t`` (at the model's own parameters)."""
     p = {k: np.asarray(v, np.float64) for k, v in model.parameters().items()}
     coords = {k: np.asarray(v) for k, v in domain.coords.items()}
@@ -129,8 +147,3 @@ def _require_constant_in_time(model: Model, domain: Any) -> None:
             raise MorphogenError(
                 f"scheme etdrk4 integrates constant diffusion exactly, but the diffusion of "
                 f"{name} changes with t; use imex for time-dependent diffusion")
-
-
-def decay_factor(z: np.ndarray) -> np.ndarray:
-    """Factor on a pure-diffusion mode per step, ``z = dt D lambda(k)``: exactly ``e^z``."""
-    return np.exp(np.asarray(z, np.float64))

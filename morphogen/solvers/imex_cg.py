@@ -42,7 +42,7 @@ solution has ``1^T M x = 1^T M b`` because ``1^T K_D = 0``): a uniform shift of 
 residual.
 (``D(x) L_h`` on grids does not conserve mass, and is left as solved.) Species with constant
 scalar ``D`` and periodic or no-flux grid boundaries keep the exact Fourier solve of
-:mod:`morphogen.solvers.imex`.
+:mod:`morphogen.solvers.fourier`.
 
 Gradients: every solve is a ``lax.custom_linear_solve``, so reverse mode solves the transposed
 system (from zero, tolerance relative to the cotangent) instead of differentiating the
@@ -61,8 +61,9 @@ import jax.numpy as jnp
 import numpy as np
 from jax.scipy.sparse.linalg import bicgstab
 
+from morphogen.domains.base import Domain
 from morphogen.models.model import Array, Tensor
-from morphogen.solvers.imex import SpectralDiffusion
+from morphogen.solvers.fourier import SpectralDiffusion
 
 CG_RTOL = 1e-5
 """Relative residual at which a float32 solve stops (relative to the diffusion increment)."""
@@ -83,7 +84,12 @@ def pcg(matvec: Any, b: Array, x0: Array | None, inv_diag: Array, tol: float, at
     """Jacobi-preconditioned CG for a symmetric positive definite ``matvec``, from ``x0``
     (``None``: zero); returns ``(x, iterations)``. Stops at
     ``||b - A x|| <= max(tol ||b||, atol)`` or after ``maxiter`` (default
-    :data:`CG_MAXITER`, read when the solve is traced) iterations."""
+    :data:`CG_MAXITER`, read when the solve is traced) iterations.
+
+    The same iteration as ``jax.scipy.sparse.linalg.cg`` with ``M = inv_diag``, written out
+    because that one squares ``tol`` in the working precision (in float32 ``1e-5**2`` comes out
+    one unit in the last place below ``1e-10``, which moves the stopping point of a borderline
+    solve)."""
     maxiter = CG_MAXITER if maxiter is None else maxiter
     limit = jnp.maximum(tol * tol * _dot(b, b), atol * atol)
     x0, r = (jnp.zeros_like(b), b) if x0 is None else (x0, b - matvec(x0))
@@ -136,10 +142,10 @@ class ImplicitDiffusion:
         held: where Dirichlet values are held, ``(S, *spatial)`` booleans, or ``None``.
     """
 
-    def __init__(self, domain: Any, species: tuple[str, ...], held: np.ndarray | None):
+    def __init__(self, domain: Domain, species: tuple[str, ...], held: np.ndarray | None):
         self.domain = domain
         self.bcs = domain.boundaries(species)
-        self.on_mesh = not hasattr(domain, "laplacian")
+        self.on_mesh = domain.kind == "mesh"
         shape = (len(species), *domain.spatial_shape)
         self.free = np.ones(shape, bool) if held is None else ~np.asarray(held, bool)
         self.spectral = None if self.on_mesh else SpectralDiffusion(domain, species)

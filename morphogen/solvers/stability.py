@@ -8,7 +8,8 @@ a discrete Fourier mode whose Laplacian eigenvalue is ``-sigma`` (``0 <= sigma <
 
 (Murray, Mathematical Biology II, ch. 2; on a grid ``sigma`` is minus the stencil's symbol).
 A one-step scheme multiplies the mode by its amplification ``R(z)`` with ``z = lambda dt``
-(``1 + z`` for Euler, the degree-4 Taylor polynomial of ``e^z`` for RK4). The step is stable
+(``1 + z`` for Euler, the degree-4 Taylor polynomial of ``e^z`` for RK4: each scheme's
+:meth:`~morphogen.solvers.base.Stepper.amplification`). The step is stable
 when ``|R(lambda dt)| <= 1`` for every decaying, diffusion-dominated eigenvalue ``lambda`` of
 ``A(sigma)`` (``Re lambda < 0`` and ``|Im lambda| <= |Re lambda|``); growing modes are the
 physics (Turing or Hopf instabilities) and oscillatory reaction modes are a matter of
@@ -23,6 +24,7 @@ or values leaving the observed range by :data:`RANGE_FACTOR`.
 from __future__ import annotations
 
 import weakref
+from collections.abc import Callable
 from functools import partial
 from typing import Any
 
@@ -30,9 +32,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from morphogen.domains.base import Domain
 from morphogen.errors import MorphogenError
-from morphogen.models.model import Array, Model, Params, Tensor
-from morphogen.solvers.imex import IMEX_SCHEMES, require_spectral_grid
+from morphogen.models.model import Array, Model, Params, Tensor, reaction_jacobian
 
 SAFETY = 0.9
 """Fraction of the marginal step that is reported as the largest stable one."""
@@ -53,38 +55,33 @@ GROWTH = 1.5
 
 _SIGMAS = 33
 
-IMPLICIT_DIFFUSION = (*IMEX_SCHEMES, "etdrk4")
-"""Schemes that integrate diffusion implicitly or exactly: limited by the reaction alone."""
+RayLimit = Callable[[np.ndarray], np.ndarray]
+"""``ray_limit(lam) -> dt``: a scheme's largest stable ``dt`` per eigenvalue ``lam``."""
 
 
-def amplification(scheme: str, z: np.ndarray) -> np.ndarray:
-    """Amplification ``R(z)`` of an explicit scheme on ``dot u = lambda u``, ``z = lambda dt``."""
-    if scheme == "euler":
-        return 1.0 + z
-    if scheme == "rk4":
-        return 1.0 + z + z**2 / 2.0 + z**3 / 6.0 + z**4 / 24.0
-    raise MorphogenError(f"no explicit amplification factor for scheme {scheme!r}")
-
-
-def ray_limit(scheme: str, lam: np.ndarray) -> np.ndarray:
-    """Largest ``dt`` with ``|R(lambda dt')| <= 1`` for all ``0 < dt' <= dt``, per eigenvalue.
-
-    Euler has the closed form ``dt = -2 Re(lambda) / |lambda|^2``; other schemes are bracketed
-    on a dense ray and refined by bisection.
-    """
+def euler_ray_limit(lam: np.ndarray) -> np.ndarray:
+    """Largest ``dt`` with ``|1 + lambda dt| <= 1``, per eigenvalue: the explicit Euler disc in
+    closed form, ``dt = -2 Re(lambda) / |lambda|^2``."""
     lam = np.asarray(lam, np.complex128)
     mag = np.abs(lam)
-    if scheme == "euler":
-        return -2.0 * lam.real / mag**2
+    return -2.0 * lam.real / mag**2
+
+
+def bisect_ray_limit(amplification: Callable[[np.ndarray], np.ndarray], lam: np.ndarray
+                     ) -> np.ndarray:
+    """Largest ``dt`` with ``|R(lambda dt')| <= 1`` for all ``0 < dt' <= dt``, per eigenvalue,
+    for the amplification ``R``: bracketed on a dense ray and refined by bisection."""
+    lam = np.asarray(lam, np.complex128)
+    mag = np.abs(lam)
     direction = lam / mag
     r = np.linspace(0.0, 4.0, 801)[1:]
-    inside = np.abs(amplification(scheme, direction[:, None] * r[None])) <= 1.0
+    inside = np.abs(amplification(direction[:, None] * r[None])) <= 1.0
     first_out = np.where(inside.all(axis=1), len(r) - 1, np.argmin(inside, axis=1))
     lo = np.where(first_out > 0, r[np.maximum(first_out - 1, 0)], 0.0)
     hi = r[first_out]
     for _ in range(50):
         mid = 0.5 * (lo + hi)
-        ok = np.abs(amplification(scheme, direction * mid)) <= 1.0
+        ok = np.abs(amplification(direction * mid)) <= 1.0
         lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
     return lo / mag
 
@@ -102,19 +99,12 @@ _JACOBIANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _jacobian_program(model: Model) -> Any:
-    """The model's batched reaction Jacobian ``(B, S), params -> (B, S, S)`` as one compiled
-    program, kept for the model's lifetime: op by op it compiles dozens of tiny programs, and a
-    new ``jit`` per call (a search checks every generation) would trace and compile again."""
+    """The model's batched reaction Jacobian ``(B, S), params -> (B, S, S)``
+    (:func:`morphogen.models.model.reaction_jacobian` under ``vmap``) as one compiled program,
+    kept for the model's lifetime: op by op it compiles dozens of tiny programs, and a new
+    ``jit`` per call (a search checks every generation) would trace and compile again."""
     if model not in _JACOBIANS:
-        coords = {"x": 0.5, "y": 0.5, "z": 0.5, "t": 0.0}
-
-        def jac(u, p):
-            def f(v):
-                return model.reaction(v.reshape(-1, 1), p, coords).reshape(-1)
-
-            return jax.jacfwd(f)(u)
-
-        _JACOBIANS[model] = jax.jit(jax.vmap(jac))
+        _JACOBIANS[model] = jax.jit(jax.vmap(partial(reaction_jacobian, model)))
     return _JACOBIANS[model]
 
 
@@ -153,10 +143,12 @@ def reaction_jacobians(model: Model, params: Params, batched: bool) -> np.ndarra
 
 
 def linear_limit(
-    model: Model, domain: Any, params: Params, scheme: str, *, batched: bool = False
+    model: Model, domain: Domain, params: Params, ray_limit: RayLimit | None, *,
+    batched: bool = False
 ) -> float:
-    """Largest stable ``dt`` over ``0 <= sigma <= rho(L)``, with :data:`SAFETY` (explicit) or
-    :data:`SAFETY_IMPLICIT`.
+    """Largest stable ``dt`` over ``0 <= sigma <= rho(L)`` of an explicit scheme whose
+    ``ray_limit`` is given, with :data:`SAFETY`; ``ray_limit=None`` for a scheme with implicit or
+    exact diffusion, with :data:`SAFETY_IMPLICIT`.
 
     The implicit-explicit and exponential schemes treat diffusion implicitly or exactly
     (unconditionally stable), so only the reaction's eigenvalues (``sigma = 0``) limit them,
@@ -172,11 +164,9 @@ def linear_limit(
         d = np.array([[float(np.max(coefficient_bound(c))) for c in model.diffusion(p, coords)]])
     jac = reaction_jacobians(model, params, batched)
     sigma = np.linspace(0.0, domain.spectral_radius(), _SIGMAS)
-    implicit = scheme in IMPLICIT_DIFFUSION
+    implicit = ray_limit is None
     if implicit:
-        if scheme == "etdrk4":
-            require_spectral_grid(domain, model.species, scheme)
-        sigma, scheme = np.zeros(1), "euler"
+        sigma, ray_limit = np.zeros(1), euler_ray_limit
     diag = d[:, :, None] * np.eye(d.shape[1])[None]
     mats = jac[:, None] - sigma[None, :, None, None] * diag[:, None]
     lam = np.linalg.eigvals(mats).reshape(-1)
@@ -185,7 +175,7 @@ def linear_limit(
     if not keep.any():
         return float("inf")
     margin = SAFETY_IMPLICIT if implicit else SAFETY
-    return float(margin * np.min(ray_limit(scheme, lam[keep])))
+    return float(margin * np.min(ray_limit(lam[keep])))
 
 
 def c_len(c: Any) -> int:
