@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from morphogen.domains.grid import Grid
+from morphogen.engine.adaptive_loop import simulate_adaptive
 from morphogen.engine.simulate import simulate, simulate_batch
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model
@@ -17,7 +18,7 @@ from morphogen.models.registry import load_model
 from morphogen.runs.config import RunConfig
 from morphogen.runs.execute import run_prepared, run_record
 from morphogen.runs.prepare import prepare
-from morphogen.solvers.adaptive import simulate_adaptive, solve
+from morphogen.solvers.adaptive import solve
 from morphogen.solvers.auto import AUTO_RATIO, choose_scheme, stiffness_ratio
 from morphogen.solvers.step import Noise
 

@@ -1,54 +1,62 @@
 """Run a model on a domain: the one place that loops over time.
 
 - :func:`integrate` is pure JAX (``lax.scan``): jit-, vmap- and grad-friendly, no host checks.
-- :func:`simulate` and :func:`simulate_batch` drive it in compiled chunks; between chunks they
-  take snapshots, update the progress bar and check for blow-up (NaN, Inf or overflow), which
-  is reported with the step and species, never silently clamped. Unless ``unsafe``, they also
-  stop a run that is diverging before it overflows (a growing checkerboard mode, values far
-  outside the starting range; :func:`morphogen.solvers.stability.divergence_flags`), with a
-  suggested ``dt``.
+- :func:`simulate` and :func:`simulate_batch` drive it in compiled chunks; between chunks their
+  monitors (:mod:`morphogen.engine.monitors`, shared with the adaptive loop of
+  :mod:`morphogen.engine.adaptive_loop`) take snapshots, update the progress bar and check for
+  blow-up (NaN, Inf or overflow), which is reported with the step and species, never silently
+  clamped. Unless ``unsafe``, they also stop a run that is diverging before it overflows (a
+  growing checkerboard mode, values far outside the starting range;
+  :func:`morphogen.solvers.stability.divergence_flags`), with a suggested ``dt``.
 """
 
 from __future__ import annotations
 
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import lru_cache, partial
 from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from morphogen.engine.monitors import (
+    BlowUp,
+    Cancel,
+    Chunk,
+    Divergence,
+    Monitors,
+    Progress,
+    Snapshots,
+    first_failure,
+)
 from morphogen.engine.solve_watch import SolveWatch
-from morphogen.errors import BlowUpError, DivergenceError, MorphogenError, MorphogenWarning
+from morphogen.errors import DivergenceError, MorphogenError, MorphogenWarning
 from morphogen.models.model import Array, Model, Params
 from morphogen.solvers.auto import choose_scheme
-from morphogen.solvers.stability import IMPLICIT_DIFFUSION, divergence_flags, observed_scale
-from morphogen.solvers.step import Noise, check_stability, make_step, max_stable_dt
-from morphogen.util.progress import ProgressBar
-
-OVERFLOW = 1e15
-"""Magnitude beyond which a value counts as blown up."""
-
-Step = Callable[[Array, Params, Array, Array, Array], Array]
+from morphogen.solvers.registry import IMPLICIT_DIFFUSION
+from morphogen.solvers.stability import observed_scale
+from morphogen.solvers.step import Noise, Step, check_stability, make_step, max_stable_dt
 
 
 def integrate(
-    step: Step, u0: Array, params: Params, *, steps: int, dt: Any, t0: Any = 0.0, key: Array
+    step: Step | Callable[[Array, Params, Array, Array, Array], Array], u0: Array,
+    params: Params, *, steps: int, dt: Any, t0: Any = 0.0, key: Array
 ) -> tuple[Array, Array, Array]:
     """Apply ``step`` ``steps`` times with ``lax.scan``; returns ``(u, t, key)``.
 
-    A step with ``invariants(params, t0, dt)`` (ETDRK4's exponentials and φ-coefficients) has
-    them computed once, before the loop, and passed to every step as ``aux``.
-    Pure and differentiable: ``jax.grad`` of a function of the final state with respect to
-    ``params`` (or ``u0``) works through it.
+    ``step`` is a :class:`~morphogen.solvers.step.Step` (:func:`morphogen.solvers.step.make_step`),
+    whose ``invariants(params, t0, dt)`` (ETDRK4's exponentials and φ-coefficients) are computed
+    once, before the loop, and passed to every step as ``aux``; or any function
+    ``(u, p, t, dt, key) -> u``. Pure and differentiable: ``jax.grad`` of a function of the
+    final state with respect to ``params`` (or ``u0``) works through it.
     """
     dt = jnp.asarray(dt, u0.dtype)
-    invariants = getattr(step, "invariants", None)
-    aux = None if invariants is None else invariants(params, jnp.asarray(t0, u0.dtype), dt)
+    aux = (step.invariants(params, jnp.asarray(t0, u0.dtype), dt) if isinstance(step, Step)
+           else None)
 
     def body(carry, _):
         u, t, k = carry
@@ -178,15 +186,17 @@ def simulate(
         clamp: bounds applied after every step: ``"model"`` (default) uses ``model.clamp``
             (``None`` for most models), ``None`` none, or ``(lo, hi)``.
         every: take a snapshot every ``every`` steps (and of the initial state); memory stays
-            bounded by ``max_snapshots`` (older snapshots are thinned to every other one).
+            bounded by ``max_snapshots`` (older snapshots are thinned to every other one:
+            :class:`morphogen.engine.monitors.Snapshots`).
         unsafe: skip the stability check and the early divergence detection (NaN, Inf and
             overflow are still reported).
-        scheme: a fixed-step scheme (:data:`morphogen.solvers.step.SCHEMES`), ``auto``
+        scheme: a fixed-step scheme (:data:`morphogen.solvers.registry.FIXED_STEP`), ``auto``
             (:func:`morphogen.solvers.auto.choose_scheme`) or ``adaptive``
             (:mod:`morphogen.solvers.adaptive`: error control by ``rtol``/``atol``, ``dt`` is the
             first step and ``steps * dt`` the end time).
-        on_chunk: called with ``n`` after each compiled chunk of ``n`` steps (fixed-step
-            schemes); an exception it raises stops the run there (a server's cancel button).
+        on_chunk: called with ``n`` after each compiled chunk of ``n`` steps (nominal ones,
+            ``t / dt``, for ``adaptive``); an exception it raises stops the run there (a
+            server's cancel button).
 
     Raises:
         UnstableTimeStepError: ``dt`` above the stability limit (unless ``unsafe``).
@@ -261,7 +271,7 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
         return _adaptive(model, domain, u, p, batched=batched, steps=steps, dt=dt,
                          scheme=scheme, noise=noise, clamp=clamp, every=every,
                          max_snapshots=max_snapshots, progress=progress, unsafe=unsafe,
-                         rtol=rtol, atol=atol, start=start)
+                         rtol=rtol, atol=atol, start=start, on_chunk=on_chunk)
     if not unsafe:
         check_stability(model, domain, p, dt, scheme, batched=batched)
     step = _cached_step(model, domain, scheme, noise, tuple(clamp) if clamp else None)
@@ -271,43 +281,27 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
     if batched:
         key = jax.random.split(key, u.shape[0])
     chunk = every or max(1, min(steps, 250))
-    shots = _Snapshots(max_snapshots) if every else None
-    if shots:
-        shots.add(0, u)
-    n_batch = u.shape[0] if batched else 1
-    first_bad = np.zeros(n_batch, np.int64)
-    watch = None if unsafe else _Watch(model, domain, u, p, dt, scheme, batched)
+    shots = Snapshots(max_snapshots, u) if every else None
+    members = u.shape[0] if batched else None
+    checks = [BlowUp(model.species, members)]
+    if not unsafe:
+        checks.append(Divergence(
+            model.species, members, observed_scale(u, model, p, batched),
+            checkerboard=domain.kind == "grid",
+            report=partial(_diverging, model, domain, p, dt, scheme)))
     solves = SolveWatch.for_run(model, domain, p, scheme, batched)
     t = jnp.asarray(0.0, dtype)
     done = 0
-    bar = ProgressBar(steps, enabled=progress, unit="step")
-    while done < steps:
-        n = min(chunk, steps - done)
-        u_prev, t_prev, key_prev = u, t, key
-        u, t_b, key = run(u, p, t, dt, key, n)
-        t = t_b[0] if batched else t_b
-        done += n
-        bad = np.asarray(_bad_species(u, batched))  # (B, S)
-        newly = bad.any(axis=1) & (first_bad == 0)
-        first_bad[newly] = done
-        if newly.any() and not batched:
-            bar.close()
-            raise _locate_blowup(model, step, u_prev, p, t_prev, dt, key_prev, done - n, n)
-        if watch is not None:
-            diverging = watch.check(u)
-            newly = diverging.any(axis=1) & (first_bad == 0)
-            first_bad[newly] = done
-            if newly.any() and not batched:
-                bar.close()
-                raise watch.error(diverging[0], done, float(t))
-        if solves is not None:
-            solves.check(u, p, t, dt, done)
-        if shots and (done % every == 0 or done == steps):
-            shots.add(done, u)
-        bar.update(n)
-        if on_chunk is not None:
-            on_chunk(n)
-    bar.close()
+    with Monitors(*checks, solves, shots, Progress(steps, enabled=progress),
+                  Cancel(on_chunk) if on_chunk is not None else None) as monitors:
+        while done < steps:
+            n = min(chunk, steps - done)
+            replay = None if batched else partial(_replay, step, p, dt, u, t, key, n)
+            u, t_b, key = run(u, p, t, dt, key, n)
+            t = t_b[0] if batched else t_b
+            done += n
+            monitors.check(Chunk(u=u, t=t, step=done, n=n, dt=dt, taken=done, replay=replay))
+    first_bad = first_failure(*checks)
     warning = solves.warning() if solves is not None else None
     if warning:
         warnings.warn(warning, MorphogenWarning, stacklevel=3)
@@ -330,14 +324,16 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
 
 def _adaptive(model, domain, u, p, *, batched: bool, steps: int, dt: float, scheme: str,
               rtol, atol, start: float, clamp, **options) -> Solution:
-    """``scheme="adaptive"``: error-controlled steps (:mod:`morphogen.solvers.adaptive`)."""
+    """``scheme="adaptive"``: error-controlled steps (:mod:`morphogen.solvers.adaptive`) in the
+    loop of :mod:`morphogen.engine.adaptive_loop`."""
     if scheme != "adaptive":
         raise MorphogenError(f"--rtol/--atol control --scheme adaptive, not {scheme}; drop "
                              "them or use --scheme adaptive")
     if batched:
         raise MorphogenError("scheme adaptive runs one state at a time (simulate); use euler, "
                              "rk4, imex or etdrk4 for a batch")
-    from morphogen.solvers.adaptive import DEFAULT_ATOL, DEFAULT_RTOL, simulate_adaptive
+    from morphogen.engine.adaptive_loop import simulate_adaptive
+    from morphogen.solvers.adaptive import DEFAULT_ATOL, DEFAULT_RTOL
 
     run = simulate_adaptive(
         model, domain, u, p, steps=steps, dt=dt, clamp=tuple(clamp) if clamp else None,
@@ -349,84 +345,32 @@ def _adaptive(model, domain, u, p, *, batched: bool, steps: int, dt: float, sche
                     snapshot_times=run.snapshot_times)
 
 
-def _bad_species(u: Array, batched: bool) -> Array:
-    bad = ~jnp.isfinite(u) | (jnp.abs(u) > OVERFLOW)
-    axes = tuple(range(2 if batched else 1, u.ndim))
-    flags = bad.any(axis=axes)
-    return flags if batched else flags[None]
-
-
-def _locate_blowup(model, step, u, p, t, dt, key, offset: int, n: int) -> BlowUpError:
-    """Replay a chunk one step at a time to name the first bad step and species."""
+def _replay(step: Step, p: Params, dt: float, u: Array, t: Array, key: Array, n: int
+            ) -> Iterator[tuple[Array, Array]]:
+    """A chunk of ``n`` steps from ``(u, t, key)`` again, one step at a time: ``(u, t)`` after
+    each (to name the first step of a blow-up)."""
     one = jax.jit(lambda u, t, k: integrate(step, u, p, steps=1, dt=dt, t0=t, key=k))
-    for i in range(n):
+    for _ in range(n):
         u, t, key = one(u, t, key)
-        bad = np.asarray(_bad_species(u, False))[0]
-        if bad.any():
-            names = tuple(s for s, b in zip(model.species, bad, strict=True) if b)
-            return BlowUpError(offset + i + 1, names, float(t))
-    return BlowUpError(offset + n, model.species, float(t))
+        yield u, t
 
 
-class _Watch:
-    """Early divergence detection between chunks (see :mod:`morphogen.solvers.stability`)."""
-
-    def __init__(self, model, domain, u0, p, dt: float, scheme: str, batched: bool):
-        self.model, self.domain, self.p = model, domain, p
-        self.dt, self.scheme, self.batched = dt, scheme, batched
-        self.scale = observed_scale(u0, model, p, batched)
-        self.on_grid = hasattr(domain, "laplacian")
-        self.prev = None
-        self.why = ""
-
-    def check(self, u: Array) -> np.ndarray:
-        """Species diverging now, shape ``(B, S)``."""
-        out, growing, grid = divergence_flags(u, self.scale, self.prev, self.batched,
-                                              self.on_grid)
-        if growing.any():
-            ratio = float(np.max(grid[growing] / self.prev[growing]))
-            self.why = f"a grid-scale (checkerboard) mode is growing (x{ratio:.3g} per check)"
-        elif out.any():
-            self.why = "values are orders of magnitude beyond the range the run started from"
-        self.prev = grid
-        return out | growing
-
-    def error(self, flags: np.ndarray, step: int, t: float) -> DivergenceError:
-        names = tuple(s for s, b in zip(self.model.species, flags, strict=True) if b)
+def _diverging(model: Model, domain: Any, p: Params, dt: float, scheme: str, chunk: Chunk,
+               names: tuple[str, ...], why: str) -> DivergenceError:
+    """The error that stops a diverging fixed-step run, with a ``dt`` to retry with."""
+    try:
+        limit = max_stable_dt(model, domain, p, scheme)
+    except MorphogenError:
+        limit = float("inf")
+    suggested = limit if limit < dt else 0.5 * dt
+    alternative = ""
+    if scheme in IMPLICIT_DIFFUSION:
+        # the limit of these schemes comes from the reaction at the ground state; a reaction
+        # that grows stiff along the run (a^2/h as h decays) can need an explicit step
         try:
-            limit = max_stable_dt(self.model, self.domain, self.p, self.scheme)
+            explicit = max_stable_dt(model, domain, p, "euler")
         except MorphogenError:
-            limit = float("inf")
-        suggested = limit if limit < self.dt else 0.5 * self.dt
-        alternative = ""
-        if self.scheme in IMPLICIT_DIFFUSION:
-            # the limit of these schemes comes from the reaction at the ground state; a reaction
-            # that grows stiff along the run (a^2/h as h decays) can need an explicit step
-            try:
-                explicit = max_stable_dt(self.model, self.domain, self.p, "euler")
-            except MorphogenError:
-                explicit = float("inf")
-            if explicit < suggested:
-                alternative = f", or --scheme euler with --dt {explicit:.6g} (its limit)"
-        return DivergenceError(step, names, t, self.why, suggested, alternative)
-
-
-class _Snapshots:
-    """Host-side snapshots with bounded memory: when full, keep every other one."""
-
-    def __init__(self, limit: int):
-        self.limit = max(2, limit)
-        self.stride = 1
-        self.seen = 0
-        self.items: list[tuple[int, np.ndarray]] = []
-
-    def add(self, step: int, u: Array) -> None:
-        if self.seen % self.stride == 0:
-            self.items.append((step, np.asarray(u)))
-            if len(self.items) > self.limit:
-                self.items = self.items[::2]
-                self.stride *= 2
-        self.seen += 1
-
-    def result(self) -> tuple[np.ndarray, list[int]]:
-        return np.stack([u for _, u in self.items]), [s for s, _ in self.items]
+            explicit = float("inf")
+        if explicit < suggested:
+            alternative = f", or --scheme euler with --dt {explicit:.6g} (its limit)"
+    return DivergenceError(chunk.step, names, float(chunk.t), why, suggested, alternative)

@@ -22,11 +22,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from morphogen.engine.monitors import Chunk, Monitor
 from morphogen.models.model import Array, Model, Params
 from morphogen.solvers import imex_cg
-from morphogen.solvers.imex import ARS_GAMMA, IMEX_SCHEMES
+from morphogen.solvers.base import held_mask, stepper
+from morphogen.solvers.imex import IMEX_SCHEMES
 from morphogen.solvers.imex_cg import ImplicitDiffusion
-from morphogen.solvers.step import held_mask
 
 REPORT_RATIO = 10.0
 """Residual over the stopping threshold above which an unconverged solve is reported (the
@@ -38,7 +39,7 @@ def _probe(model: Model, domain: Any, scheme: str) -> tuple[ImplicitDiffusion, A
     """The domain's implicit solver and the compiled probe of a step's first solve, kept per
     model, domain and scheme like the step itself (a run does not trace and compile it again)."""
     solver = ImplicitDiffusion(domain, model.species, held_mask(model, domain))
-    gamma = 1.0 if scheme == "imex1" else ARS_GAMMA
+    gamma = stepper(scheme).gamma
     coords = {k: jnp.asarray(v) for k, v in domain.coords.items()}
     bcs = domain.boundaries(model.species)
 
@@ -51,11 +52,12 @@ def _probe(model: Model, domain: Any, scheme: str) -> tuple[ImplicitDiffusion, A
     return solver, jax.jit(probe)
 
 
-class SolveWatch:
-    """Probe the next step's first implicit solve between chunks; remember the worst one."""
+class SolveWatch(Monitor):
+    """Probe the next step's first implicit solve between chunks (a monitor of
+    :mod:`morphogen.engine.monitors`); remember the worst one."""
 
-    def __init__(self, model: Model, probe: Any):
-        self.model, self.probe = model, probe
+    def __init__(self, model: Model, probe: Any, params: Params):
+        self.model, self.probe, self.params = model, probe, params
         self.worst = 0.0
         self.where: tuple[int, str] | None = None
 
@@ -63,7 +65,7 @@ class SolveWatch:
     def for_run(cls, model: Model, domain: Any, params: Params, scheme: str, batched: bool
                 ) -> SolveWatch | None:
         """A watch for a run of an IMEX scheme with an iterative solve on one state, else
-        ``None``."""
+        ``None``. ``params`` are the run's, as its steps receive them."""
         if batched or scheme not in IMEX_SCHEMES:
             return None
         solver, probe = _probe(model, domain, scheme)
@@ -71,14 +73,16 @@ class SolveWatch:
         coeffs = model.diffusion({k: jnp.asarray(v) for k, v in params.items()}, coords)
         if not any(solver.iterative(i, d) for i, d in enumerate(coeffs)):
             return None
-        return cls(model, probe)
+        return cls(model, probe, params)
 
-    def check(self, u: Array, p: Params, t: Array, dt: float, step: int) -> None:
-        """Probe the solve from state ``u`` at time ``t`` (after ``step`` steps)."""
-        ratios = np.asarray(self.probe(u, p, t, jnp.asarray(dt, u.dtype)), np.float64)
+    def check(self, chunk: Chunk) -> None:
+        """Probe the solve of the step that follows ``chunk``."""
+        u = chunk.u
+        ratios = np.asarray(self.probe(u, self.params, chunk.t, jnp.asarray(chunk.dt, u.dtype)),
+                            np.float64)
         i = int(np.argmax(ratios))
         if np.isfinite(ratios[i]) and ratios[i] > max(self.worst, REPORT_RATIO):
-            self.worst, self.where = float(ratios[i]), (step, self.model.species[i])
+            self.worst, self.where = float(ratios[i]), (chunk.step, self.model.species[i])
 
     def warning(self) -> str | None:
         """One line naming the worst unconverged solve, or ``None`` if every probe converged."""

@@ -14,29 +14,24 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.models.model import Model, Params
+from morphogen.models.model import CENTRE, Model, Params, reaction_jacobian
 
 
 def jacobian(model: Model, params: Params, state: np.ndarray | None = None) -> np.ndarray:
-    """Jacobian of the reaction terms at ``state`` (default: the ground state), shape (S, S)."""
+    """``J = dR/du`` (:func:`morphogen.models.model.reaction_jacobian`, float32) at ``state``
+    (default: the ground state) with the spatial means of the parameters, shape (S, S)."""
     u0 = model.ground_state(params) if state is None else np.asarray(state)
     p = {k: jnp.asarray(np.mean(np.asarray(v)), jnp.float32) for k, v in params.items()}
-    coords = {"x": 0.5, "y": 0.5, "z": 0.5, "t": 0.0}
-
-    def f(u):
-        return model.reaction(u.reshape(-1, 1), p, coords).reshape(-1)
-
-    return np.asarray(jax.jacfwd(f)(jnp.asarray(u0, jnp.float32)), dtype=np.float64)
+    return np.asarray(reaction_jacobian(model, jnp.asarray(u0, jnp.float32), p), dtype=np.float64)
 
 
 def diffusion_vector(model: Model, params: Params) -> np.ndarray:
     """Isotropic diffusion coefficient of each species (spatial means), shape (S,)."""
-    coeffs = model.diffusion(dict(params), {"x": 0.5, "y": 0.5, "z": 0.5, "t": 0.0})
+    coeffs = model.diffusion(dict(params), dict(CENTRE))
     return np.array([float(np.mean(np.asarray(d))) for d in coeffs])
 
 

@@ -28,6 +28,10 @@ Params = Mapping[str, Array]
 Coords = Mapping[str, Array]
 """Position and time: ``x``, ``y``, ``z`` (arrays broadcastable to the spatial shape) and ``t``."""
 
+CENTRE: Coords = {"x": 0.5, "y": 0.5, "z": 0.5, "t": 0.0}
+"""Where a homogeneous state is evaluated (ground states, Jacobians, time-step limits): the
+centre of the unit square at ``t = 0``, for terms that read position or time."""
+
 
 INITIAL_NAMES = ("uniform", "noise", "square", "blobs", "skaggs", "seeds", "random", "image", "npz")
 """The initial conditions a model file may suggest with ``init``: the names of the builders in
@@ -178,6 +182,25 @@ def _scalar(value: Any) -> float:
     return float(np.mean(np.asarray(value, dtype=np.float64)))
 
 
+def reaction_jacobian(model: Model, u: Array, params: Params, coords: Coords = CENTRE) -> Array:
+    """The reaction's Jacobian at one homogeneous state ``u`` (shape ``(S,)``), shape ``(S, S)``:
+
+    .. math:: J_{ij} = \\partial R_i / \\partial u_j\\,(u, p, x)
+
+    (Murray, Mathematical Biology II, ch. 2: the ``J`` of the linearised system), by forward
+    mode over the species axis (``jax.jacfwd``, ``S`` tangents). Pure JAX: ``jit`` and ``vmap``
+    it over states and parameters. The one Jacobian of the package: the ground-state Newton
+    iteration here, the dispersion relation of :mod:`morphogen.models.linear` and the time-step
+    limits of :mod:`morphogen.solvers.stability` all use it.
+    """
+    import jax
+
+    def f(v: Array) -> Array:
+        return model.reaction(v.reshape(-1, 1), params, coords).reshape(-1)
+
+    return jax.jacfwd(f)(u)
+
+
 _NEWTON: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
@@ -189,16 +212,11 @@ def _newton_program(model: Model) -> Any:
         import jax
         import jax.numpy as jnp
 
-        coords = {"x": 0.5, "y": 0.5, "z": 0.5, "t": 0.0}
-
         def solve(p: Params) -> Array:
-            def f(u):
-                return model.reaction(u.reshape(-1, 1), p, coords).reshape(-1)
-
-            jac = jax.jacfwd(f)
-
             def newton(_, u):
-                return u - 0.7 * jnp.linalg.lstsq(jac(u), f(u))[0]
+                jac = reaction_jacobian(model, u, p)
+                r = model.reaction(u.reshape(-1, 1), p, CENTRE).reshape(-1)
+                return u - 0.7 * jnp.linalg.lstsq(jac, r)[0]
 
             return jax.lax.fori_loop(0, 60, newton, jnp.ones(len(model.species), jnp.float32))
 
