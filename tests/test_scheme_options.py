@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from morphogen.cli import options
 from morphogen.cli.main import main
 from morphogen.domains.grid import Grid
 from morphogen.engine.simulate import simulate
@@ -14,17 +13,20 @@ from morphogen.errors import MorphogenError
 from morphogen.models.library import get_model
 from morphogen.models.registry import load_model
 from morphogen.runs.atlas import Axis, compute_atlas
+from morphogen.runs.settings import BY_NAME
 from morphogen.search.evaluate import Evaluator, Problem
 from morphogen.search.genes import preset_genes
 from morphogen.solvers.auto import population_scheme
-from morphogen.solvers.step import RUN_SCHEMES, SCHEMES
+from morphogen.solvers.registry import NAMES
 
 SCHNAKENBERG = "examples/schnakenberg.toml"
 
 
 def test_command_line_choices_are_the_engine_schemes():
-    assert options.SCHEMES == SCHEMES + RUN_SCHEMES
-    assert set(options.POPULATION_SCHEMES) == set(options.SCHEMES) - {"adaptive"}
+    scheme = BY_NAME["scheme"]
+    assert scheme.choices_for("simulate") == NAMES
+    for command in ("evolve", "atlas", "fit"):
+        assert set(scheme.choices_for(command)) == set(NAMES) - {"adaptive"}
 
 
 def test_population_scheme_resolves_auto_and_refuses_adaptive():

@@ -21,24 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("model", metavar="MODEL_OR_FILE")
     p.add_argument("--x", required=True, metavar="NAME=START:STOP:N", help="horizontal axis")
     p.add_argument("--y", required=True, metavar="NAME=START:STOP:N", help="vertical axis")
-    p.add_argument("--size", default="64x64", help="grid size of each tile (default 64x64)")
-    p.add_argument("--dx", type=options.positive_float, default=1.0)
-    p.add_argument("--dt", type=options.positive_float, default=None)
-    run_length = p.add_mutually_exclusive_group()
-    run_length.add_argument("--steps", type=options.positive_int)
-    run_length.add_argument("--time", type=options.positive_float)
-    p.add_argument("--boundary", action="append", metavar="SPEC")
-    p.add_argument("--stencil", choices=options.STENCILS,
-                   help="Laplacian: stencil points, or spectral (periodic grids)")
-    p.add_argument("--scheme", choices=options.POPULATION_SCHEMES, default="euler",
-                   help="time stepper (imex, imex1, etdrk4: stiff diffusion on grids; auto: imex "
-                   "when stiff, else euler; see docs/schemes.md)")
-    p.add_argument("--init", help="initial condition kind (default: the model's)")
-    p.add_argument("--seed", type=options.seed, default=0)
-    p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE")
-    p.add_argument("--species", help="species to draw")
-    p.add_argument("--cmap", default="viridis")
-    p.add_argument("--unsafe", action="store_true", help="skip the stability check on dt")
+    options.add_run_arguments(p, "atlas")
     p.add_argument("--classify", action="store_true",
                    help="name each tile's pattern family (spots, stripes, ...) on the mosaic "
                    "and in DIR/families.csv")
@@ -50,6 +33,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+DEFAULTS = {"size": [64, 64], "cmap": "viridis"}
+"""``atlas``'s own defaults of run settings (the others are the table's)."""
+
+
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -59,30 +46,33 @@ def run(args: argparse.Namespace) -> int:
     from morphogen.render import atlas_image, colour_limits, state_image, write_png
     from morphogen.render.mosaic import frame_tiles
     from morphogen.runs.atlas import Axis, classify_atlas, compute_atlas, write_families
+    from morphogen.runs.prepare import set_precision
     from morphogen.util.io import ensure_writable_dir, write_json, write_npz
 
     model = load_model(args.model)
     x, y = Axis.parse(args.x), Axis.parse(args.y)
     model.parameters({x.name: 0.0, y.name: 0.0})
-    grid = Grid(tuple(options.size(args.size)), dx=args.dx,
-                boundary=options.boundary(args.boundary), stencil=options.stencil(args.stencil))
-    dt = args.dt or model.dt
-    steps = args.steps or int(round((args.time or model.t_end) / dt))
-    species = args.species or model.display_species
+    run = options.run_settings(args, "atlas", DEFAULTS)
+    set_precision(run["precision"])
+    grid = Grid(tuple(run["size"]), dx=run["dx"], boundary=run["boundary"],
+                stencil=run["stencil"])
+    dt = run["dt"] or model.dt
+    steps = run["steps"] or int(round((run["time"] or model.t_end) / dt))
+    species = run["species"] or model.display_species
     index = model.species_index(species)
     watch = _watch(args.watch, steps) if args.classify else None
     if watch and len(grid.shape) != 2:
         raise MorphogenError("--classify works on 2D grids; give --size as WxH")
     out = ensure_writable_dir(args.out or Path("out") / f"atlas-{Path(args.model).stem}")
-    atlas = compute_atlas(model, grid, x, y, params=options.assignments(args.param),
-                          steps=steps, dt=dt, init=args.init, seed=args.seed,
-                          progress=options.show_progress(args), unsafe=args.unsafe,
-                          watch=watch, scheme=args.scheme)
+    atlas = compute_atlas(model, grid, x, y, params=run["params"], steps=steps, dt=dt,
+                          init=run["init"], seed=run["seed"],
+                          progress=options.show_progress(args), unsafe=run["unsafe"],
+                          watch=watch, scheme=run["scheme"])
     fields = atlas.states[:, :, index]
     if fields.ndim == 5:
         fields = fields[:, :, fields.shape[2] // 2]
     lo, hi = colour_limits(fields[atlas.valid] if atlas.valid.any() else fields)
-    tiles = np.stack([[state_image(f, args.cmap, lo, hi) for f in row] for row in fields])
+    tiles = np.stack([[state_image(f, run["cmap"], lo, hi) for f in row] for row in fields])
     title = f"{model.name}: {species} after {steps} steps (dt={dt:g})"
     families = None
     if watch:
@@ -98,9 +88,10 @@ def run(args: argparse.Namespace) -> int:
     write_json(out / "atlas.json", {
         "model": model.name, "x": {"name": x.name, "values": x.values},
         "y": {"name": y.name, "values": y.values}, "size": list(grid.shape), "dt": dt,
-        "steps": steps, "scheme": atlas.scheme, "seed": args.seed,
+        "steps": steps, "scheme": atlas.scheme, "seed": run["seed"],
         "invalid": int((~atlas.valid).sum()),
         "wall_time_s": round(atlas.wall_time, 3), "families": families,
+        **({"precision": run["precision"]} if run["precision"] != "float32" else {}),
     })
     print(f"wrote {out}/atlas.png ({len(y.values)}x{len(x.values)} runs, "
           f"{atlas.wall_time:.1f} s, {(~atlas.valid).sum()} blew up)")

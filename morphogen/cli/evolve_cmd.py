@@ -13,7 +13,7 @@ from morphogen.search.evaluate import FITNESS_KINDS, Problem
 from morphogen.search.executors import EXECUTORS, make_executor
 from morphogen.search.fitness import ask_selection
 from morphogen.search.genes import Gene, check_genes, preset_genes
-from morphogen.search.run import STRATEGIES, evolve, resolve_run, start
+from morphogen.search.run import STRATEGIES, evolve, resolve_run, set_generations, start
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -34,7 +34,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fitness", choices=FITNESS_KINDS, default="dirichlet")
     p.add_argument("--target", metavar="IMAGE", help="target image for --fitness target")
     p.add_argument("--population", type=options.positive_int, default=30)
-    p.add_argument("--generations", type=options.positive_int, default=10)
+    p.add_argument("--generations", type=options.positive_int,
+                   help=f"generations to run (default {GENERATIONS}); with --resume, the run's "
+                   "new total: more extends it, and it may not be below the generations done")
     p.add_argument("--elitism", type=int, default=0, help="GA: best individuals kept as is")
     p.add_argument("--tournament", type=int, default=0,
                    help="GA: tournament size (default 0: fitness-proportionate selection)")
@@ -42,28 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="CMA-ES: initial step as a fraction of each gene's range")
     p.add_argument("--learning-rate", type=options.positive_float, default=0.02,
                    help="gradient: Adam step as a fraction of each gene's range")
-    p.add_argument("--size", default="128x128", help="grid size: N, NxM or NxMxK")
-    p.add_argument("--dx", type=options.positive_float, default=1.0, help="cell spacing")
-    p.add_argument("--dt", type=options.positive_float, help="time step (default: the model's)")
-    length = p.add_mutually_exclusive_group()
-    length.add_argument("--steps", type=options.positive_int, help="steps per individual")
-    length.add_argument("--time", type=options.positive_float, help="simulated time T")
-    p.add_argument("--boundary", action="append", metavar="SPEC",
-                   help="periodic | neumann | dirichlet=VALUE, or SPECIES=SPEC")
-    p.add_argument("--stencil", choices=options.STENCILS,
-                   help="Laplacian: stencil points, or spectral (periodic grids)")
-    p.add_argument("--scheme", choices=options.POPULATION_SCHEMES, default="euler",
-                   help="time stepper (imex, imex1, etdrk4: stiff diffusion on grids; auto: imex "
-                   "when stiff, else euler; see docs/schemes.md)")
-    p.add_argument("--init", metavar="KIND|FILE",
-                   help="initial condition (default: the model's; Skaggs used 'skaggs')")
-    p.add_argument("--init-opt", action="append", metavar="NAME=VALUE")
-    p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE",
-                   help="fixed parameter value (repeatable)")
-    p.add_argument("--preset", help="named parameter preset of the model")
-    p.add_argument("--clamp", metavar="LO:HI|none", help="bound values after each step")
-    p.add_argument("--seed", type=options.seed, default=0)
-    p.add_argument("--cmap", default="viridis", help="colour map of the pictures")
+    options.add_run_arguments(p, "evolve")
     p.add_argument("--out", help="run directory (default: next to the archive, named by id)")
     p.add_argument("--resume", metavar="RUN", help="continue a run: its directory or id")
     p.add_argument("--archive", help="run archive (default $MORPHOGEN_ARCHIVE or "
@@ -74,6 +55,18 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="Ray tasks per generation (default: one per CPU)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
+    NEW_RUN_DEFAULTS.update(vars(p.parse_args([])))
+
+
+NEW_RUN_DEFAULTS: dict = {}
+"""Every option's default, recorded when the parser is built: with ``--resume`` an option that
+sets up a new run must keep it (the run keeps the settings it was started with)."""
+RESUME_OPTIONS = ("generations", "archive", "executor", "address", "batches", "quiet")
+"""The options that apply to a resumed run (besides ``--resume`` itself)."""
+GENERATIONS = 10
+"""Generations of a new run unless ``--generations`` says otherwise."""
+DEFAULTS = {"size": [128, 128], "cmap": "viridis"}
+"""``evolve``'s own defaults of run settings (the others are the table's)."""
 
 
 def problem_from_args(args: argparse.Namespace) -> Problem:
@@ -84,16 +77,17 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     else:
         genes = tuple(preset_genes(model.name, list(model.params)))
     check_genes(genes, list(model.params))
-    dt = float(args.dt if args.dt is not None else model.dt)
-    steps = args.steps if args.steps is not None else round((args.time or model.t_end) / dt)
-    size = args.size if "x" in args.size.lower() else f"{args.size}x{args.size}"
+    if args.size and "x" not in args.size.lower():
+        args.size = f"{args.size}x{args.size}"  # evolve takes N for an N x N grid
+    run = options.run_settings(args, "evolve", DEFAULTS)
+    dt = float(run["dt"] if run["dt"] is not None else model.dt)
+    steps = run["steps"] if run["steps"] is not None else round((run["time"] or model.t_end) / dt)
     problem = Problem(
-        model=args.model, genes=genes, model_source=model.source, preset=args.preset,
-        params=options.assignments(args.param), size=tuple(options.size(size)), dx=args.dx,
-        boundary=options.boundary(args.boundary), stencil=options.stencil(args.stencil), dt=dt,
-        steps=max(1, int(steps)), scheme=args.scheme, clamp=options.clamp(args.clamp),
-        seed=args.seed, init=args.init or model.init,
-        init_options=options.assignments(args.init_opt, "--init-opt"), fitness=args.fitness,
+        model=args.model, genes=genes, model_source=model.source, preset=run["preset"],
+        params=run["params"], size=tuple(run["size"]), dx=run["dx"], boundary=run["boundary"],
+        stencil=run["stencil"], dt=dt, steps=max(1, int(steps)), scheme=run["scheme"],
+        clamp=run["clamp"], seed=run["seed"], init=run["init"] or model.init,
+        init_options=run["init_options"], fitness=args.fitness,
         target=str(Path(args.target).absolute()) if args.target else None,
     )
     if args.fitness != "target" and args.target:
@@ -122,6 +116,7 @@ def run(args: argparse.Namespace) -> int:
     ray_options = {"address": args.address, "batches": args.batches}
     options_for = ray_options if args.executor == "ray" else {}
     if args.resume:
+        _refuse_new_run_options(args)
         run_id, archive = resolve_run(args.resume, args.archive)
         stored = archive.run(run_id)
         config = stored["config"]
@@ -138,6 +133,8 @@ def run(args: argparse.Namespace) -> int:
             raise MorphogenError(
                 f"run {run_id} has a damaged stored configuration; it cannot be resumed"
             ) from None
+        if args.generations is not None:
+            set_generations(run_id, archive, args.generations)
         executor = make_executor(args.executor, problem, gradient=gradient, **options_for)
     else:
         problem = problem_from_args(args)
@@ -146,14 +143,29 @@ def run(args: argparse.Namespace) -> int:
         executor = make_executor(args.executor, problem, gradient=gradient,
                                  **options_for)  # validates first
         archive = Archive(args.archive)
-        run_id, _ = start(problem, strategy, generations=args.generations, seed=args.seed,
-                          out=args.out, archive=archive, cmap=args.cmap)
+        run_id, _ = start(problem, strategy, generations=args.generations or GENERATIONS,
+                          seed=problem.seed,
+                          out=args.out, archive=archive, cmap=args.cmap or DEFAULTS["cmap"])
     print(f"run {run_id} in {archive.run(run_id)['dir']}", flush=True)
     result = evolve(run_id, archive, executor, select=ask_selection,
                     progress=options.show_progress(args), log=lambda line: print(line, flush=True))
     genes = gene_summary([g.name for g in problem.genes], result.best_genome)
     print(f"best fitness {result.best_fitness:.4f}: {genes}; see {result.directory}/best/")
     return 0
+
+
+def _refuse_new_run_options(args: argparse.Namespace) -> None:
+    """With ``--resume``, refuse an option that only a new run can honour, rather than ignore
+    it and report success."""
+    for name, default in NEW_RUN_DEFAULTS.items():
+        if name in (*RESUME_OPTIONS, "resume", "model", "func"):
+            continue
+        if getattr(args, name, default) != default:
+            flag = "--" + name.replace("_", "-")
+            raise MorphogenError(
+                f"{flag} sets up a new run, and a resumed run keeps the settings it was started "
+                f"with; drop {flag} (with --resume only --{', --'.join(RESUME_OPTIONS)} apply)"
+            )
 
 
 def gene_summary(names: list[str], values, limit: int = 8) -> str:

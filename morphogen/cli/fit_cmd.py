@@ -47,27 +47,18 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="Adam step as a fraction of each gene's range")
     p.add_argument("--start", choices=("centre", "uniform"), default="centre",
                    help="start at the centre of the bounds (spread by sigma) or uniformly")
-    p.add_argument("--size", default="64x64", help="grid size HxW (2D)")
-    p.add_argument("--dt", type=options.positive_float, help="time step (default: the model's)")
-    p.add_argument("--steps", type=options.positive_int, default=400,
-                   help="steps per simulation (short-ish keeps the loss landscape smooth)")
-    p.add_argument("--stencil", choices=options.STENCILS,
-                   help="Laplacian: stencil points, or spectral (periodic grids)")
-    p.add_argument("--scheme", choices=options.POPULATION_SCHEMES, default="euler",
-                   help="time stepper (imex, imex1, etdrk4: stiff diffusion on grids; auto: imex "
-                   "when stiff, else euler; see docs/schemes.md)")
-    p.add_argument("--init", metavar="KIND|FILE", help="initial condition (default: the model's)")
-    p.add_argument("--init-opt", action="append", metavar="NAME=VALUE")
-    p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE",
-                   help="fixed parameter value (repeatable)")
-    p.add_argument("--preset", help="named parameter preset of the model")
+    options.add_run_arguments(p, "fit")
     p.add_argument("--features", choices=EXTRACTORS, default="random", help="texture descriptors")
     p.add_argument("--n-rot", type=options.positive_int, default=8,
                    help="target orientations of the rotation-invariant loss")
-    p.add_argument("--seed", type=options.seed, default=0)
     p.add_argument("--out", help="output directory (default out/fit/MODEL)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
+
+
+DEFAULTS = {"size": [64, 64], "steps": 400}
+"""``fit``'s own defaults of run settings (400 steps: short-ish keeps the loss landscape
+smooth)."""
 
 
 def problem_from_args(args: argparse.Namespace) -> Problem:
@@ -77,14 +68,13 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     check_genes(genes, list(model.params))
     if not Path(args.target).is_file():
         raise MorphogenError(f"target image {args.target} does not exist")
-    dt = float(args.dt if args.dt is not None else model.dt)
+    run = options.run_settings(args, "fit", DEFAULTS)
+    dt = float(run["dt"] if run["dt"] is not None else model.dt)
     return Problem(
-        model=args.model, genes=genes, model_source=model.source, preset=args.preset,
-        params=options.assignments(args.param), size=tuple(options.size(args.size)),
-        stencil=options.stencil(args.stencil), dt=dt, steps=args.steps, scheme=args.scheme,
-        seed=args.seed,
-        init=args.init or model.init,
-        init_options=options.assignments(args.init_opt, "--init-opt"), fitness="target",
+        model=args.model, genes=genes, model_source=model.source, preset=run["preset"],
+        params=run["params"], size=tuple(run["size"]), stencil=run["stencil"], dt=dt,
+        steps=run["steps"], scheme=run["scheme"], seed=run["seed"],
+        init=run["init"] or model.init, init_options=run["init_options"], fitness="target",
         target=str(Path(args.target).absolute()),
     )
 
@@ -111,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         result = fit(evaluate, strategy, problem.genes, iterations=args.iterations,
-                     seed=args.seed, callback=report)
+                     seed=problem.seed, callback=report)
     finally:
         bar.close()
     best = {g.name: float(v) for g, v in zip(problem.genes, result.best_genome, strict=True)}

@@ -1,6 +1,8 @@
-"""Parsers for command-line values shared by several sub-commands.
+"""Parsers for command-line values shared by several sub-commands, and the run settings'
+flags (:func:`add_run_arguments`, :func:`run_settings`) declared from the table of
+:mod:`morphogen.runs.settings`.
 
-Each raises :class:`MorphogenError` with a one-line message on bad input.
+Each parser raises :class:`MorphogenError` with a one-line message on bad input.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ import os
 from typing import Any
 
 from morphogen.errors import MorphogenError
+from morphogen.runs.settings import SEED_MAX, Setting, default, for_command
 
 
 def size(text: str) -> list[int]:
@@ -61,23 +64,16 @@ def boundary(items: list[str] | None) -> Any:
     return per_species or whole
 
 
-SCHEMES = ("euler", "rk4", "imex1", "imex", "etdrk4", "adaptive", "auto")
-"""``--scheme`` choices (:data:`morphogen.solvers.step.SCHEMES` and ``RUN_SCHEMES``), listed here so
-that building the parser does not import JAX."""
-
-POPULATION_SCHEMES = tuple(s for s in SCHEMES if s != "adaptive")
-"""``--scheme`` choices of commands that advance a population with one ``dt`` (search, atlas):
-:func:`morphogen.solvers.auto.population_scheme`."""
-
-STENCILS = ("5", "7", "9", "spectral")
-"""``--stencil`` choices: points of a finite-difference stencil, or the spectral Laplacian."""
-
-
 def stencil(text: str | None) -> int | str | None:
     """``--stencil 9`` -> ``9``; ``spectral`` stays a word; absent -> ``None`` (the default)."""
     if text is None or text == "spectral":
         return text
     return int(text)
+
+
+def init_options(items: list[str] | None) -> dict[str, Any]:
+    """``--init-opt count=20 --init-opt sigma=2`` -> ``{"count": 20.0, "sigma": 2.0}``."""
+    return assignments(items, "--init-opt")
 
 
 def clamp(text: str | None) -> Any:
@@ -115,8 +111,6 @@ def noise(text: str | None) -> dict[str, Any] | None:
 
 def seed(text: str) -> int:
     """argparse type: a seed, a whole number from 0 to 2**32 - 1 (JAX keys keep 32 bits)."""
-    from morphogen.runs.schema import SEED_MAX
-
     try:
         value = int(text)
     except ValueError:
@@ -153,3 +147,66 @@ def show_progress(args: argparse.Namespace) -> bool:
     import sys
 
     return not getattr(args, "quiet", False) and sys.stderr.isatty() and not os.environ.get("CI")
+
+
+ARG_TYPES = {"float": float, "positive_int": positive_int, "positive_float": positive_float,
+             "seed": seed}
+"""argparse types a row of :data:`morphogen.runs.settings.SETTINGS` may name (``argtype``)."""
+
+PARSERS = {"size": size, "boundary": boundary, "stencil": stencil, "clamp": clamp,
+           "noise": noise, "assignments": assignments, "init_options": init_options}
+"""Parsers of a flag's text a row may name (``parse``)."""
+
+
+def add_run_arguments(parser: argparse.ArgumentParser, command: str) -> None:
+    """Declare the flags of every run setting that ``command`` takes, with the table's help,
+    metavar and choices; ``--steps`` and ``--time`` exclude each other. Every default is
+    ``None`` (or off): :func:`run_settings` fills in the command's defaults, so a flag given
+    on the command line can be told from one left out."""
+    rows = for_command(command)
+    names = {s.name for s in rows}
+    length = parser.add_mutually_exclusive_group() if {"steps", "time"} <= names else parser
+    for row in rows:
+        target = length if row.name in ("steps", "time") else parser
+        flags = [row.short, row.flag] if row.short else [row.flag]
+        if row.arg == "switch":
+            target.add_argument(*flags, action="store_true", help=row.help)
+            continue
+        kwargs: dict[str, Any] = {"help": row.help, "default": None}
+        if row.arg == "append":
+            kwargs["action"] = "append"
+        if row.metavar:
+            kwargs["metavar"] = row.metavar
+        if row.argtype:
+            kwargs["type"] = ARG_TYPES[row.argtype]
+        if row.choices_for(command):
+            kwargs["choices"] = row.choices_for(command)
+        target.add_argument(*flags, **kwargs)
+
+
+def given_settings(args: argparse.Namespace, command: str) -> dict[str, Any]:
+    """The run settings given on the command line, as run-setting values (``--size 64x64`` ->
+    ``{"size": [64, 64]}``, ``--x64`` -> ``{"precision": "float64"}``)."""
+    out: dict[str, Any] = {}
+    for row in for_command(command):
+        raw = getattr(args, _dest(row))
+        if raw is None or raw is False:
+            continue
+        if row.arg == "switch":
+            out[row.name] = row.switch_value
+        else:
+            out[row.name] = PARSERS[row.parse](raw) if row.parse else raw
+    return out
+
+
+def run_settings(args: argparse.Namespace, command: str,
+                 defaults: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Every run setting ``command`` takes: given on the command line, else the command's own
+    default from ``defaults``, else the table's."""
+    values = {row.name: default(row.name) for row in for_command(command)}
+    return {**values, **(defaults or {}), **given_settings(args, command)}
+
+
+def _dest(row: Setting) -> str:
+    """The argparse attribute of a row's flag (``--init-opt`` -> ``init_opt``)."""
+    return row.flag.lstrip("-").replace("-", "_")

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import jax.numpy as jnp
 import numpy as np
 
 from morphogen.engine.fields import resolve_params
@@ -112,8 +113,9 @@ def compute_atlas(
     ny, nx = len(y.values), len(x.values)
     batch = batch_params(base, ny * nx, batched=())
     xx, yy = np.meshgrid(x.values, y.values)
-    batch[x.name] = np.asarray(xx.reshape(-1), np.float32)
-    batch[y.name] = np.asarray(yy.reshape(-1), np.float32)
+    real = np.dtype(jnp.result_type(float))  # float32, or float64 in JAX's x64 mode
+    batch[x.name] = np.asarray(xx.reshape(-1), real)
+    batch[y.name] = np.asarray(yy.reshape(-1), real)
     sample = dict(values)
     sample.update({x.name: float(x.values.mean()), y.name: float(y.values.mean())})
     u0 = make_initial(init or model.init, model, domain, sample, seed=seed)

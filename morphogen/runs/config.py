@@ -11,71 +11,57 @@ on the same machine. :mod:`morphogen.runs.prepare` resolves it into objects and
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field, fields
+from dataclasses import field, fields, make_dataclass
 from pathlib import Path
 from typing import Any
 
 from morphogen.errors import MorphogenError
 from morphogen.runs.schema import validate_config
+from morphogen.runs.settings import REQUIRED, SETTINGS, Setting, default
 
 FORMAT = "morphogen-run/1"
 SNAPSHOTS = 241
 """Snapshots a run with ``every`` keeps at most (``simulate``'s ``max_snapshots`` + 1)."""
 
 
-@dataclass
-class RunConfig:
-    """Everything that determines a simulation and its pictures.
+def _from_dict(cls: type, data: dict[str, Any]) -> Any:
+    """Rebuild a config from ``run.json``'s ``config`` object (unknown keys are an error)."""
+    if not isinstance(data, dict):
+        raise MorphogenError("run file: 'config' must be an object")
+    known = {f.name for f in fields(cls)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise MorphogenError(f"run file has unknown settings {unknown}")
+    if "model" not in data:
+        raise MorphogenError("run file lacks the 'model' setting")
+    validate_config(data, "run file")
+    return cls(**data)
+
+
+def _field(setting: Setting) -> tuple:
+    """A dataclass field of a row: lists and dicts get a fresh copy of the default per run."""
+    if setting.default is REQUIRED:
+        return setting.name, setting.type
+    if isinstance(setting.default, list | dict):
+        return setting.name, setting.type, field(
+            default_factory=lambda name=setting.name: default(name))
+    return setting.name, setting.type, field(default=setting.default)
+
+
+_DOC = """Everything that determines a simulation and its pictures: one field per row of
+    :data:`morphogen.runs.settings.SETTINGS`, with its default.
 
     ``steps`` or ``time`` may be ``None``: the model's suggested ``t_end`` and ``dt`` fill in
     (the suggested ``dt`` is reduced to 90 % of the stability limit when the domain needs it).
     ``clamp`` is ``"model"`` (the model's own bounds), ``None`` or ``[lo, hi]``.
+    ``RunConfig.from_dict(data)`` rebuilds a config from ``run.json``'s ``config`` object
+    (unknown keys are an error).
     """
 
-    model: str
-    model_source: str | None = None
-    preset: str | None = None
-    params: dict[str, Any] = field(default_factory=dict)
-    size: list[int] = field(default_factory=lambda: [256, 256])
-    mesh: str | None = None
-    dx: float = 1.0
-    boundary: Any = "periodic"
-    stencil: int | str | None = None
-    dt: float | None = None
-    steps: int | None = None
-    time: float | None = None
-    scheme: str = "euler"
-    rtol: float | None = None
-    atol: float | None = None
-    seed: int = 0
-    init: str | None = None
-    init_options: dict[str, Any] = field(default_factory=dict)
-    noise: dict[str, Any] | None = None
-    clamp: Any = "model"
-    every: int | None = None
-    species: str | None = None
-    cmap: str | None = None
-    vmin: float | None = None
-    vmax: float | None = None
-    threshold: float | None = None
-    fps: float = 12.0
-    animation: str = "gif"
-    unsafe: bool = False
-    precision: str = "float32"
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> RunConfig:
-        """Rebuild a config from ``run.json``'s ``config`` object (unknown keys are an error)."""
-        if not isinstance(data, dict):
-            raise MorphogenError("run file: 'config' must be an object")
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(data) - known)
-        if unknown:
-            raise MorphogenError(f"run file has unknown settings {unknown}")
-        if "model" not in data:
-            raise MorphogenError("run file lacks the 'model' setting")
-        validate_config(data, "run file")
-        return cls(**data)
+RunConfig = make_dataclass(
+    "RunConfig", [_field(s) for s in SETTINGS],
+    namespace={"from_dict": classmethod(_from_dict), "__doc__": _DOC, "__module__": __name__},
+)
 
 
 def load_run_file(path: str | Path) -> RunConfig:
@@ -94,4 +80,21 @@ def load_run_file(path: str | Path) -> RunConfig:
         ) from None
     if not isinstance(data, dict) or not isinstance(data.get("config"), dict):
         raise MorphogenError(f"{path} is not a morphogen run file (no 'config' object)")
+    if "format" in data:
+        check_format(data["format"], f"run file {path}")
     return RunConfig.from_dict(data["config"])
+
+
+def check_format(value: Any, where: str) -> None:
+    """Refuse a ``format`` other than ``morphogen-run/N`` with ``N`` at most this version's
+    (:data:`FORMAT`): a newer file may hold settings this version would misread. A run file
+    without ``format`` (written by hand) is read as the current version."""
+    name, _, version = FORMAT.partition("/")
+    kind, _, number = value.partition("/") if isinstance(value, str) else ("", "", "")
+    if kind != name or not number.isdigit() or not number.isascii():
+        raise MorphogenError(f"{where} is not a morphogen run file (format {str(value)[:40]!r}, "
+                             f"expected {FORMAT!r})")
+    number = number.lstrip("0") or "0"
+    if len(number) > 9 or int(number) > int(version):
+        raise MorphogenError(f"{where} has format {value[:40]}, written by a newer morphogen; this "
+                             f"one reads {FORMAT} and older: upgrade morphogen to replay it")

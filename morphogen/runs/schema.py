@@ -4,7 +4,8 @@ One schema serves run files, ``--config`` and the command line (whose flags beco
 settings), so a run is refused with one line before anything is computed or written:
 types are strict (``steps: 2.5``, ``size: "a"`` or ``model: 5`` are errors, never coerced),
 numbers are finite, bounds are ordered, and display settings (colour map, ``fps``,
-``animation``) are checked as well as the simulation's.
+``animation``) are checked as well as the simulation's. The fields are the rows of
+:data:`morphogen.runs.settings.SETTINGS`; the names their ``schema`` texts use are defined here.
 """
 
 from __future__ import annotations
@@ -14,15 +15,18 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, StrictStr, ValidationError, model_validator
 
 from morphogen.errors import MorphogenError
+from morphogen.runs.settings import REQUIRED, SEED_MAX, SETTINGS
+from morphogen.solvers.registry import NAMES
 
 Finite = Annotated[float, Field(allow_inf_nan=False)]
 Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 Count = Annotated[int, Field(ge=1)]
 Value = Annotated[float, Field(allow_inf_nan=False)] | StrictStr
 Bound = Annotated[list[Finite], Field(min_length=2, max_length=2)]
+Seed = Annotated[int, Field(ge=0, le=SEED_MAX)]
 
-SEED_MAX = 2**32 - 1
-"""Largest seed: JAX keys without x64 keep 32 bits, so larger seeds would repeat."""
+Scheme = Literal[NAMES]
+"""``scheme``: a name of :data:`morphogen.solvers.registry.NAMES`."""
 
 
 class NoiseSchema(BaseModel):
@@ -34,55 +38,38 @@ class NoiseSchema(BaseModel):
     species: list[StrictStr] | tuple[StrictStr, ...] = ()
 
 
-class RunSchema(BaseModel):
-    """Every field of :class:`morphogen.runs.config.RunConfig`."""
+def _ordered(self: BaseModel) -> BaseModel:
+    """Checks across settings: ordered bounds, ``steps`` or ``time``, a known colour map."""
+    if isinstance(self.clamp, list) and not self.clamp[0] < self.clamp[1]:
+        raise ValueError(f"clamp needs LO < HI, got {self.clamp}")
+    if self.vmin is not None and self.vmax is not None and not self.vmin < self.vmax:
+        raise ValueError(f"vmin must be below vmax, got {self.vmin:g} and {self.vmax:g}")
+    if self.steps is not None and self.time is not None:
+        raise ValueError("give either steps or time, not both")
+    if self.cmap is not None:
+        from morphogen.render.colour import check_cmap
 
-    model_config = ConfigDict(extra="forbid", strict=True)
-    model: Annotated[StrictStr, Field(min_length=1)]
-    model_source: StrictStr | None = None
-    preset: StrictStr | None = None
-    params: dict[StrictStr, Value] = {}
-    size: Annotated[list[Annotated[int, Field(ge=3)]], Field(min_length=2, max_length=3)] = [
-        256, 256]
-    mesh: StrictStr | None = None
-    dx: Positive = 1.0
-    boundary: StrictStr | dict[StrictStr, StrictStr] = "periodic"
-    stencil: Literal[5, 7, 9, "spectral"] | None = None
-    dt: Positive | None = None
-    steps: Count | None = None
-    time: Positive | None = None
-    scheme: Literal["euler", "rk4", "imex1", "imex", "etdrk4", "adaptive", "auto"] = "euler"
-    rtol: Positive | None = None
-    atol: Positive | None = None
-    seed: Annotated[int, Field(ge=0, le=SEED_MAX)] = 0
-    init: StrictStr | None = None
-    init_options: dict[StrictStr, Value] = {}
-    noise: NoiseSchema | None = None
-    clamp: Literal["model"] | Bound | None = "model"
-    every: Count | None = None
-    species: StrictStr | None = None
-    cmap: StrictStr | None = None
-    vmin: Finite | None = None
-    vmax: Finite | None = None
-    threshold: Finite | None = None
-    fps: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] = 12.0
-    animation: Literal["gif", "mp4"] = "gif"
-    unsafe: bool = False
-    precision: Literal["float32", "float64"] = "float32"
+        check_cmap(self.cmap)
+    return self
 
-    @model_validator(mode="after")
-    def _ordered(self) -> RunSchema:
-        if isinstance(self.clamp, list) and not self.clamp[0] < self.clamp[1]:
-            raise ValueError(f"clamp needs LO < HI, got {self.clamp}")
-        if self.vmin is not None and self.vmax is not None and not self.vmin < self.vmax:
-            raise ValueError(f"vmin must be below vmax, got {self.vmin:g} and {self.vmax:g}")
-        if self.steps is not None and self.time is not None:
-            raise ValueError("give either steps or time, not both")
-        if self.cmap is not None:
-            from morphogen.render.colour import check_cmap
 
-            check_cmap(self.cmap)
-        return self
+def _schema() -> type[BaseModel]:
+    """:class:`RunSchema` from :data:`morphogen.runs.settings.SETTINGS`: each row's ``schema``
+    text is its field's type (read in this module's namespace), its default the field's."""
+    namespace: dict[str, Any] = {
+        "__module__": __name__,
+        "__qualname__": "RunSchema",
+        "__doc__": "Every field of :class:`morphogen.runs.config.RunConfig`, one per row of "
+                   ":data:`morphogen.runs.settings.SETTINGS`.",
+        "__annotations__": {s.name: s.schema for s in SETTINGS},
+        "model_config": ConfigDict(extra="forbid", strict=True),
+        "_ordered": model_validator(mode="after")(_ordered),
+    }
+    namespace.update({s.name: s.default for s in SETTINGS if s.default is not REQUIRED})
+    return type("RunSchema", (BaseModel,), namespace)
+
+
+RunSchema = _schema()
 
 
 def validate_config(data: Any, where: str = "run") -> None:

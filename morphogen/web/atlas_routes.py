@@ -36,6 +36,7 @@ from morphogen.web import batch
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.jobs import Job, Progress
 from morphogen.web.limits import JSONBody, Limits, check_budget, integer, number
+from morphogen.web.settings import read_settings
 
 router = APIRouter(prefix="/api/atlas")
 
@@ -86,14 +87,16 @@ async def start(request: Request, body: JSONBody):
     lim: Limits = request.app.state.limits
     spec = body.get("model", {"library": "gray-scott"})
     model, _ = resolve_model(spec, lim)
-    base = model.parameters(check_params(body.get("params"), model))
+    base = model.parameters(check_params(read_settings(body, ("params",))["params"], model))
     x = parse_axis(body.get("x"), base, "x", lim)
     y = parse_axis(body.get("y"), base, "y", lim)
     if x["name"] == y["name"]:
         raise MorphogenError("the two atlas axes must be different parameters")
     run = batch.settings(body, model, base, lim, tile_default=64)
     check_budget(run["tile"] ** 2, run["steps"], x["n"] * y["n"], lim)
-    cmap = batch.colour_map(body.get("cmap", "viridis"))
+    grid = Grid((run["tile"], run["tile"]), dx=run["dx"], boundary=run["boundary"],
+                stencil=run["stencil"])
+    cmap = read_settings(body, ("cmap",), defaults={"cmap": "viridis"})["cmap"]
     families = body.get("families", False)
     if not isinstance(families, bool):
         raise MorphogenError("families must be true or false")
@@ -114,7 +117,7 @@ async def start(request: Request, body: JSONBody):
             progress(done / max(run["steps"], 1), f"{what}: step {done}")
 
         atlas = compute_atlas(
-            model, Grid((run["tile"], run["tile"])),
+            model, grid,
             Axis(x["name"], np.asarray(x["values"])), Axis(y["name"], np.asarray(y["values"])),
             params=base, steps=run["steps"], dt=run["dt"], init=run["init"], seed=run["seed"],
             on_chunk=chunk, watch=watch,

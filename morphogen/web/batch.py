@@ -7,43 +7,34 @@ from typing import Any
 
 import numpy as np
 
-from morphogen.errors import MorphogenError
 from morphogen.models.model import Model
-from morphogen.render.colour import colour_limits, colourise, parse_cmap
+from morphogen.render.colour import colour_limits, colourise
 from morphogen.render.mosaic import frame_tiles
-from morphogen.web.limits import Limits, choice, integer, number
-from morphogen.web.live import INITIAL_KINDS
+from morphogen.web.limits import Limits
+from morphogen.web.settings import INITIAL_KINDS, read_settings
 
-MAX_STEPS = 200_000
+BATCH_SETTINGS = ("size", "dx", "boundary", "stencil", "dt", "seed", "init", "species")
+"""The run settings of a batched web run read from its body (``steps`` follows ``dt``)."""
 
 
 def settings(body: Mapping[str, Any], model: Model, base: Mapping[str, float], limits: Limits,
              *, tile_default: int) -> dict[str, Any]:
-    """Validated ``tile``, ``dt``, ``steps``, ``init``, ``seed`` and shown ``species``.
+    """Validated ``tile`` (the body's ``tile``: cells per side), ``dx``, ``boundary``,
+    ``stencil``, ``dt``, ``steps``, ``init``, ``seed`` and shown ``species``
+    (:func:`morphogen.web.settings.read_settings`).
 
     Defaults are the model's suggestions (``model.dt``, ``model.t_end / dt``, ``model.init``).
     """
-    tile = integer(body.get("tile", tile_default), "tile size", 8, limits.max_tile_size)
-    dt = body.get("dt")
-    dt = model.dt if dt is None else number(dt, "dt", 1e-6, 1e3)
-    steps = body.get("steps")
-    steps = int(round(model.t_end / dt)) if steps is None else steps
-    steps = integer(steps, "steps", 1, MAX_STEPS)
-    init = body.get("init") or (model.init if model.init in INITIAL_KINDS else "square")
-    init = choice(init, "initial condition", INITIAL_KINDS)
-    seed = integer(body.get("seed", 0), "seed", 0, 2**31 - 1)
-    species = body.get("species") or model.display_species
-    model.species_index(species)
-    return {"tile": tile, "dt": float(dt), "steps": steps, "init": init, "seed": seed,
-            "species": species}
-
-
-def colour_map(name: Any) -> str:
-    """A validated colour-map name or ramp."""
-    if not isinstance(name, str) or len(name) > 200:
-        raise MorphogenError("colour map must be a name such as 'viridis'")
-    parse_cmap(name)
-    return name
+    run = read_settings(
+        body, BATCH_SETTINGS, keys={"size": "tile"}, labels={"size": "tile size"},
+        bounds={"size": (8, limits.max_tile_size)},
+        defaults={"size": tile_default, "species": model.display_species,
+                  "init": model.init if model.init in INITIAL_KINDS else "square"})
+    dt = model.dt if run["dt"] is None else run["dt"]
+    steps = read_settings(body, ("steps",), defaults={"steps": int(round(model.t_end / dt))})
+    model.species_index(run["species"])
+    tile = run.pop("size")
+    return {**run, "tile": tile, "dt": float(dt), **steps}
 
 
 def mosaic(states: np.ndarray, model: Model, species: str, cmap: str,

@@ -11,6 +11,7 @@ import numpy as np
 from morphogen.errors import MorphogenError
 from morphogen.render.colour import colourise
 from morphogen.render.images import upscale
+from morphogen.runs.settings import default
 
 
 def png_bytes(field: np.ndarray, cmap: str, scale: int = 1) -> bytes:
@@ -25,7 +26,8 @@ def run_config(sim: Any, steps: int | None = None) -> bytes:
     ``steps`` defaults to the steps taken so far (at least 1000); running the file with
     ``morphogen simulate --config`` starts from the same initial condition and seed, so it
     reproduces what the page showed, strokes painted by hand aside. Pasted equations travel
-    inside the file as ``model_source``. A parameter map (an uploaded image) has no place in a
+    inside the file as ``model_source``; ``dx`` and ``stencil`` appear when they are not the
+    defaults. A parameter map (an uploaded image) has no place in a
     run file: the file is refused while one is set.
     """
     from morphogen.runs.config import FORMAT
@@ -39,7 +41,9 @@ def run_config(sim: Any, steps: int | None = None) -> bytes:
         "model": d["model"],
         "params": d["params"],
         "size": [d["height"], d["size"]],
+        **({"dx": d["dx"]} if d["dx"] != default("dx") else {}),
         "boundary": d["boundary"],
+        **({"stencil": d["stencil"]} if d["stencil"] != default("stencil") else {}),
         "scheme": d["scheme"],
         "dt": d["dt"],
         "steps": n,

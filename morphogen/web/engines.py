@@ -30,7 +30,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.domains.grid import Grid
-from morphogen.engine.simulate import OVERFLOW, integrate
+from morphogen.engine.monitors import OVERFLOW
+from morphogen.engine.simulate import integrate
 from morphogen.models.model import Model
 from morphogen.solvers.step import make_step
 from morphogen.web.brush import painter
@@ -124,16 +125,19 @@ _ENGINES_LOCK = threading.Lock()
 
 
 def engine_for(model: Model, key: str, shape: tuple[int, int], boundary: str,
-               scheme: str = "euler") -> Engine:
-    """The shared :class:`Engine` of a model (by cache key) on an ``(h, w)`` grid with a time
-    stepper of :data:`morphogen.web.live.LIVE_SCHEMES` (one the model or boundary cannot take
-    is refused by :func:`morphogen.solvers.step.make_step` with its one-line reason)."""
-    ident = (key, tuple(shape), boundary, scheme)
+               scheme: str = "euler", *, dx: float = 1.0,
+               stencil: int | str | None = None) -> Engine:
+    """The shared :class:`Engine` of a model (by cache key) on an ``(h, w)`` grid of spacing
+    ``dx`` and Laplacian ``stencil`` with a time stepper of
+    :data:`morphogen.solvers.registry.LIVE` (one the model, boundary or stencil cannot take is
+    refused by :class:`~morphogen.domains.grid.Grid` or
+    :func:`morphogen.solvers.step.make_step` with its one-line reason)."""
+    ident = (key, tuple(shape), boundary, scheme, dx, stencil)
     with _ENGINES_LOCK:
         if ident in _ENGINES:
             _ENGINES.move_to_end(ident)
             return _ENGINES[ident]
-    grid = Grid(tuple(shape), boundary=boundary)
+    grid = Grid(tuple(shape), dx=dx, boundary=boundary, stencil=stencil)
     step = make_step(model, grid, scheme=scheme, clamp=model.clamp)
     eng = Engine(model=remembered_ground(model), grid=grid, step=step, scheme=scheme)
     with _ENGINES_LOCK:

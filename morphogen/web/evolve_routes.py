@@ -18,7 +18,6 @@ from morphogen.search.archive import Archive
 from morphogen.search.evaluate import Evaluator, Problem
 from morphogen.search.genes import Gene, check_genes, preset_genes
 from morphogen.search.run import STRATEGIES, start
-from morphogen.web.batch import colour_map
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.limits import (
     JSONBody,
@@ -29,7 +28,7 @@ from morphogen.web.limits import (
     number,
     run_limited,
 )
-from morphogen.web.live import INITIAL_KINDS
+from morphogen.web.settings import INITIAL_KINDS, read_settings
 
 router = APIRouter(prefix="/api/evolve")
 
@@ -37,6 +36,8 @@ FITNESS = ("user", "dirichlet")
 SEARCH_STRATEGIES = tuple(name for name, cls in STRATEGIES.items() if not cls.needs_gradient)
 """The web app's strategies: those that need no fitness gradient (it has no target images)."""
 MAX_GENERATIONS = 200
+EVOLVE_SETTINGS = ("params", "size", "dx", "boundary", "stencil", "dt", "steps", "seed", "init")
+"""The run settings an Evolve request takes from its body."""
 MAX_GENES = 128
 
 
@@ -95,23 +96,23 @@ def build(body: dict[str, Any], limits: Limits) -> tuple[Problem, dict[str, Any]
     spec = body.get("model", {"library": "gray-scott"})
     model, _ = resolve_model(spec, limits)
     d = defaults(model, limits)
-    size = integer(body.get("size", d["size"]), "grid size", 16, limits.max_tile_size)
+    run = read_settings(body, EVOLVE_SETTINGS, labels={"size": "grid size"},
+                        bounds={"size": (16, limits.max_tile_size)},
+                        defaults={k: d[k] for k in ("size", "dt", "steps", "init")})
     population = integer(body.get("population", d["population"]), "population", 2,
                          limits.max_population)
     generations = integer(body.get("generations", d["generations"]), "generations", 1,
                           MAX_GENERATIONS)
-    dt = number(body.get("dt", d["dt"]), "dt", 1e-6, 1e3)
-    steps = integer(body.get("steps", d["steps"]), "steps", 1, 200_000)
+    size, steps, seed = run["size"], run["steps"], run["seed"]
     check_budget(size * size, steps, population, limits)
     fitness = choice(body.get("fitness", "user"), "fitness", FITNESS)
     strategy = choice(body.get("strategy", "ga"), "strategy", SEARCH_STRATEGIES)
-    init = choice(body.get("init", d["init"]), "initial condition", INITIAL_KINDS)
-    seed = integer(body.get("seed", 0), "seed", 0, 2**31 - 1)
     problem = Problem(
         model=model.name if "library" in spec else f"{model.name}.toml",
         genes=parse_genes(body.get("genes"), model), model_source=model.source,
-        params=check_params(body.get("params"), model), size=(size, size), dt=dt, steps=steps,
-        seed=seed, init=init, fitness=fitness,
+        params=check_params(run["params"], model), size=(size, size), dx=run["dx"],
+        boundary=run["boundary"], stencil=run["stencil"], dt=run["dt"], steps=steps, seed=seed,
+        init=run["init"], fitness=fitness,
     )
     strat: dict[str, Any] = {"name": strategy, "population": population}
     if strategy == "ga":
@@ -135,7 +136,7 @@ async def create(request: Request, body: JSONBody):
     """Validate, create the run in the archive, and start it; returns its status."""
     lim: Limits = request.app.state.limits
     problem, strat, generations, seed = build(body, lim)
-    cmap = colour_map(body.get("cmap", "viridis"))
+    cmap = read_settings(body, ("cmap",), defaults={"cmap": "viridis"})["cmap"]
     # building an evaluator checks the model, genes and stability before anything is written
     await run_limited(lambda: Evaluator(problem), lim.request_timeout_s, "checking the run")
     archive = _archive(request)

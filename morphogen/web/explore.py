@@ -23,6 +23,7 @@ from morphogen.web.image_input import RESAMPLING, decode_png, image_field
 from morphogen.web.limits import JSONBody, OptionalBody, choice, integer, number, run_limited
 from morphogen.web.live import Frame, LiveSim
 from morphogen.web.recording import FORMATS
+from morphogen.web.settings import read_settings
 
 router = APIRouter(prefix="/api/live")
 
@@ -45,23 +46,21 @@ def _sim(request_or_ws: Request | WebSocket, sid: str) -> LiveSim:
     return request_or_ws.app.state.sessions.get(sid)
 
 
+LIVE_SETTINGS = ("params", "preset", "size", "dx", "boundary", "stencil", "scheme", "seed",
+                 "init")
+"""The run settings a live view takes from its request body (``height`` is its own)."""
+
+
 async def _configure(request: Request, sim: LiveSim, body: dict[str, Any]) -> dict[str, Any]:
     lim = request.app.state.limits
-    return await run_limited(
-        lambda: sim.configure(
-            body.get("model", {"library": "gray-scott"}),
-            size=body.get("size", 256),
-            boundary=body.get("boundary", "periodic"),
-            params=body.get("params"),
-            preset=body.get("preset"),
-            init=body.get("init"),
-            seed=body.get("seed", 0),
-            height=body.get("height"),
-            scheme=body.get("scheme", "euler"),
-        ),
-        lim.request_timeout_s,
-        "setting up the model",
-    )
+
+    def configure() -> dict[str, Any]:
+        run = read_settings(body, LIVE_SETTINGS, defaults={"size": 256},
+                            bounds={"size": (lim.min_size, lim.max_size)})
+        return sim.configure(body.get("model", {"library": "gray-scott"}),
+                             height=body.get("height"), **run)
+
+    return await run_limited(configure, lim.request_timeout_s, "setting up the model")
 
 
 @router.post("")

@@ -6,10 +6,12 @@ from fastapi import APIRouter, Request
 from fastapi.responses import Response
 
 from morphogen.errors import MorphogenError
+from morphogen.solvers.registry import LIVE
 from morphogen.web.catalog import describe, library_names, resolve_model
 from morphogen.web.limits import JSONBody
-from morphogen.web.live import INITIAL_KINDS, LIVE_SCHEMES, STEP_CHOICES
+from morphogen.web.live import STEP_CHOICES
 from morphogen.web.recording import colour_table
+from morphogen.web.settings import INITIAL_KINDS
 
 router = APIRouter(prefix="/api")
 
@@ -35,7 +37,7 @@ async def models():
         "colormaps": list(COLORMAPS),
         "init_kinds": list(INITIAL_KINDS),
         "step_choices": list(STEP_CHOICES),
-        "schemes": list(LIVE_SCHEMES),
+        "schemes": list(LIVE),
     }
 
 

@@ -2,9 +2,10 @@
 
 A :class:`LiveSim` holds a state ``u`` of shape ``(S, h, w)`` on a periodic (or no-flux) grid
 and advances it by ``steps`` steps per frame of one of the per-step schemes of
-:mod:`morphogen.solvers.step` (:data:`LIVE_SCHEMES`: explicit Euler, RK4, IMEX, ETDRK4; see
-docs/schemes.md) with the jitted :func:`morphogen.engine.simulate.integrate`, compiled once per
-model and grid and shared by the tabs (:mod:`morphogen.web.engines`).
+:mod:`morphogen.solvers.step` (:data:`morphogen.solvers.registry.LIVE`: explicit Euler, RK4,
+IMEX, ETDRK4; see docs/schemes.md) with the jitted
+:func:`morphogen.engine.simulate.integrate`, compiled once per model and grid and shared by the
+tabs (:mod:`morphogen.web.engines`).
 Parameters, ``dt``, the species shown and the colour scale are *runtime* arguments of the compiled
 program, so moving a slider never recompiles; only the number of steps per frame is static, and it
 is taken from :data:`STEP_CHOICES` so each value compiles once per model and grid.
@@ -29,6 +30,7 @@ import numpy as np
 from morphogen.engine.initial import make_initial
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model
+from morphogen.solvers.registry import LIVE, SCHEMES
 from morphogen.solvers.step import max_stable_dt
 from morphogen.web.brush import brush_values
 from morphogen.web.catalog import check_params, resolve_model
@@ -36,18 +38,13 @@ from morphogen.web.engines import Engine, engine_for, pixels
 from morphogen.web.image_input import image_field
 from morphogen.web.limits import Limits, choice, integer, number
 from morphogen.web.recording import Recorder
+from morphogen.web.settings import INITIAL_KINDS, check
 
 STEP_CHOICES = (1, 2, 4, 8, 16, 32, 64, 128, 256)
 """Allowed steps per frame (each value is one compiled program)."""
 
-BOUNDARIES = ("periodic", "neumann")
-LIVE_SCHEMES = ("euler", "rk4", "imex1", "imex", "etdrk4")
-"""Time steppers offered live: those of :data:`morphogen.solvers.step.SCHEMES` that advance one
-fixed step at a time (``adaptive`` chooses its own steps per run, so it is not offered)."""
 UNDO_DEPTH = 10
 """Brush strokes that can be undone (each keeps one copy of the state)."""
-INITIAL_KINDS = ("square", "noise", "blobs", "seeds", "skaggs", "uniform")
-"""Initial conditions offered (those of :mod:`morphogen.engine.initial` that need no file)."""
 FRAMES_TO_PATTERN = 200
 """Default steps per frame: the model's suggested run (``t_end / dt``) in about this many
 frames, i.e. about ten seconds at 20 frames/s."""
@@ -91,6 +88,8 @@ class LiveSim:
         self.height = 256
         self.boundary = "periodic"
         self.scheme = "euler"
+        self.dx = 1.0
+        self.stencil: int | str | None = None
         self.fixed: tuple[float, float] | None = None
         self.undo_stack: list[Any] = []
         self.recorder = Recorder()
@@ -101,28 +100,32 @@ class LiveSim:
     def configure(self, spec: Mapping[str, Any], size: int = 256, boundary: str = "periodic",
                   params: Mapping[str, Any] | None = None, preset: str | None = None,
                   init: str | None = None, seed: int = 0, height: int | None = None,
-                  scheme: str = "euler") -> dict[str, Any]:
+                  scheme: str = "euler", dx: float = 1.0,
+                  stencil: int | str | None = None) -> dict[str, Any]:
         """Choose the model, the grid (``size`` cells wide, ``height`` high, square when
-        ``None``) and the time stepper, set parameters (defaults, a preset, then overrides) and
-        reset to initial condition ``init`` (the model's suggestion when ``None``). Validates
-        everything before changing anything."""
+        ``None``; cell spacing ``dx``; Laplacian ``stencil``, the grid's default when ``None``)
+        and the time stepper, set parameters (defaults, a preset, then overrides) and reset to
+        initial condition ``init`` (the model's suggestion when ``None``). Validates everything
+        before changing anything."""
         lim = self.limits
         size = integer(size, "size", lim.min_size, lim.max_size)
         height = size if height is None else integer(height, "height", lim.min_size,
                                                      lim.max_size)
-        boundary = choice(boundary, "boundary", BOUNDARIES)
-        scheme = choice(scheme, "scheme", LIVE_SCHEMES)
+        boundary = check("boundary", boundary)
+        scheme = check("scheme", scheme)
+        dx = check("dx", dx)
+        stencil = None if stencil is None else check("stencil", stencil)
         model, key = resolve_model(spec, lim)
         if preset is not None and preset not in model.presets:
             model.parameters(preset=preset)  # raises the one-line error listing presets
         values = model.parameters(check_params(params or {}, model), preset=preset or None)
-        eng = engine_for(model, key, (height, size), boundary, scheme)
+        eng = engine_for(model, key, (height, size), boundary, scheme, dx=dx, stencil=stencil)
         values = {k: float(v) for k, v in values.items()}
         u0, init, seed = _initial(eng, values, init or _offered(model.init), seed)
         with self.lock:
             self.spec = dict(spec)
             self.engine, self.size, self.height, self.boundary = eng, size, height, boundary
-            self.scheme = scheme
+            self.scheme, self.dx, self.stencil = scheme, dx, stencil
             self.fixed = None
             self.values, self.maps, self.limit = values, {}, None
             self.show = model.species.index(model.display_species)
@@ -328,7 +331,9 @@ class LiveSim:
             "height": self.height,
             "boundary": self.boundary,
             "scheme": self.scheme,
-            "schemes": list(LIVE_SCHEMES),
+            "schemes": list(LIVE),
+            "dx": self.dx,
+            "stencil": self.stencil,
             "range": list(self.fixed) if self.fixed else "auto",
             "undo": len(self.undo_stack),
             "recording": self.recorder.describe(),
@@ -390,7 +395,10 @@ class LiveSim:
         return self.limit
 
     def _default_dt(self) -> float:
-        """The model's suggested ``dt``, lowered below the explicit stability limit if needed."""
+        """The model's suggested ``dt``, lowered below the explicit stability limit if needed;
+        a scheme that treats diffusion implicitly runs at its own stable step (95 % of it)."""
+        if SCHEMES[self.scheme].implicit_diffusion:
+            return float(0.95 * self._dt_max())
         return float(min(self.engine.model.dt, 0.95 * self._dt_max()))
 
     def _fit_dt(self) -> list[str]:

@@ -35,11 +35,10 @@ from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError
 from morphogen.render.colour import colourise
 from morphogen.solvers.step import max_stable_dt
-from morphogen.web.batch import colour_map
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.jobs import Job, Progress
 from morphogen.web.limits import JSONBody, Limits, check_budget, choice, integer, number
-from morphogen.web.live import INITIAL_KINDS
+from morphogen.web.settings import INITIAL_KINDS, read_settings
 
 router = APIRouter(prefix="/api/mesh")
 
@@ -72,6 +71,9 @@ SIZE_RANGE = (20.0, 240.0)
 DETAIL_RANGE = (0.2, 1.5)
 SEGMENTS = 8
 """Pieces the simulation is cut into, each one's colours shown live (one compile serves all)."""
+MESH_SETTINGS = ("params", "dt", "seed", "init", "species", "cmap")
+"""The run settings a Mesh request takes from its body (``steps`` follows ``dt``; the mesh's
+own ``size`` and ``detail`` are not the grid's)."""
 
 
 def check_paint(paint: Any, model) -> tuple[str, float, list[int]] | None:
@@ -140,7 +142,10 @@ async def start(request: Request, body: JSONBody):
     lim: Limits = request.app.state.limits
     spec = body.get("model", {"library": "gray-scott"})
     model, _ = resolve_model(spec, lim)
-    values = model.parameters(check_params(body.get("params"), model))
+    run = read_settings(body, MESH_SETTINGS, defaults={
+        "cmap": "magma", "species": model.display_species,
+        "init": model.init if model.init in INITIAL_KINDS else "noise"})
+    values = model.parameters(check_params(run["params"], model))
     shape = choice(body.get("shape", "corolla"), "shape", SHAPES)
     petals = integer(body.get("petals", 5), "petals", 2, 12)
     size = number(body.get("size", 120), "size", *SIZE_RANGE)
@@ -151,14 +156,10 @@ async def start(request: Request, body: JSONBody):
             f"(about 18 000 vertices): with detail {detail:g} the size can be at most "
             f"{int(MAX_ACROSS / detail)}"
         )
-    given_dt = body.get("dt")
-    dt = model.dt if given_dt is None else number(given_dt, "dt", 1e-6, 1e3)
-    steps = integer(body.get("steps", round(model.t_end / dt)), "steps", 1, 200_000)
-    init = choice(body.get("init") or (model.init if model.init in INITIAL_KINDS else "noise"),
-                  "initial condition", INITIAL_KINDS)
-    seed = integer(body.get("seed", 0), "seed", 0, 2**31 - 1)
-    cmap = colour_map(body.get("cmap", "magma"))
-    species = body.get("species") or model.display_species
+    given_dt = run["dt"]
+    dt = model.dt if given_dt is None else given_dt
+    steps = read_settings(body, ("steps",), defaults={"steps": round(model.t_end / dt)})["steps"]
+    init, seed, cmap, species = run["init"], run["seed"], run["cmap"], run["species"]
     index = model.species_index(species)
     paint = check_paint(body.get("paint"), model)
     previous = None
