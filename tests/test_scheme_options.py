@@ -72,3 +72,13 @@ def test_population_commands_list_every_fixed_scheme(command, capsys):
         main([command, "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "{euler,rk4,imex1,imex,etdrk4,auto}" in text
+
+
+def test_auto_that_picks_euler_runs_without_a_given_dt(tmp_path):
+    from morphogen.runs.config import RunConfig
+    from morphogen.runs.prepare import prepare
+
+    prep = prepare(RunConfig(model="gray-scott", size=[16, 16], steps=2, scheme="auto"))
+    gray = get_model("gray-scott")
+    assert population_scheme("auto", gray, prep.domain, prep.params) == "euler"
+    assert 0 < prep.dt <= gray.dt

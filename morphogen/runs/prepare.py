@@ -137,9 +137,10 @@ def _default_dt(model: Model, domain: Any, params: dict, config: RunConfig) -> f
     """The model's suggested dt, reduced to 90 % of the stability limit where the domain
     (a 3D grid, a fine mesh, a larger diffusion) needs it; with ``auto`` choosing a stiff
     scheme, that scheme's (reaction-limited) limit."""
-    if config.scheme == "auto":
+    scheme = config.scheme
+    if scheme == "auto":
         scheme = choose_scheme(model, domain, params)
         if scheme != "euler":
             return max_stable_dt(model, domain, params, scheme)
-    limit = max_stable_dt(model, domain, params, config.scheme)
+    limit = max_stable_dt(model, domain, params, scheme)
     return float(min(model.dt, 0.9 * limit))
