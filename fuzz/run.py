@@ -22,16 +22,47 @@ _RUNS = re.compile(r"^#(\d+)\s", re.MULTILINE)
 TARGETS = ("equations", "ply", "network")
 """The targets of :mod:`fuzz.targets` (kept here so this runner stays uninstrumented)."""
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+MAX_LEN = {"equations": 128 * 1024, "ply": 4096, "network": 4096}
+"""Largest input per target, in bytes: a model file with thousands of parameters (about 60 kB
+for 5 000) must fit, so the model-text target's cap is far above the others'."""
+CANARY = Path(tempfile.gettempdir()) / "morphogen-fuzz-canary.ant"
+"""A file the network target writes before fuzzing and the network seeds ``import``. A network
+file must never make libAntimony read another file; the canary is not Antimony, so reading it
+fails with a message naming it (or, if it ever parsed, leaves ``FUZZ_CANARY`` in the model):
+either trace is a finding."""
+CANARY_TEXT = "FUZZ_CANARY FUZZ_CANARY FUZZ_CANARY\n"
+
+
+def _deep(depth: int) -> str:
+    """A model file whose unknown key ``deep`` holds arrays nested ``depth`` levels."""
+    return f"deep = {'[' * depth}1{']' * depth}\n"
+
+
+def _many_parameters(count: int) -> str:
+    """A valid model file with ``count`` parameters (all used in the equation of ``u``)."""
+    names = [f"p{i}" for i in range(count)]
+    params = "".join(f"{n} = {i % 7 + 0.5}\n" for i, n in enumerate(names))
+    terms = "+".join(names[:200])
+    return (f'species = ["u"]\n[parameters]\n{params}[equations]\n'
+            f'u = "({terms})*1e-6 - u + lap(u)"\n')
 
 
 def seed_corpus(target: str, folder: Path) -> Path:
-    """Write valid starting inputs for ``target`` into ``folder``: the example model files, a
-    small mesh saved as ASCII and binary PLY, or the example Antimony networks with the library
-    network as SBML and Antimony."""
+    """Write starting inputs for ``target`` into ``folder``: the example model files plus
+    hostile ones (arrays and inline tables nested 20 to 2 000 deep, a model with 5 000
+    parameters), a small mesh saved as ASCII and binary PLY, or the example Antimony networks
+    with the library network as SBML and Antimony, and that network after ``import`` lines
+    naming :data:`CANARY` (plain, after a string and a comment, and inside a comment)."""
     folder.mkdir(parents=True, exist_ok=True)
     if target == "equations":
         for toml in sorted(EXAMPLES.glob("*.toml")):
             (folder / toml.name).write_bytes(toml.read_bytes())
+        model = (EXAMPLES / "schnakenberg.toml").read_text(encoding="utf-8")
+        for depth in (20, 2000):
+            (folder / f"deep-{depth}.toml").write_text(_deep(depth) + model, encoding="utf-8")
+        (folder / "inline-tables.toml").write_text(
+            "deep = " + "{a = " * 200 + "1" + "}" * 200 + "\n" + model, encoding="utf-8")
+        (folder / "parameters-5000.toml").write_text(_many_parameters(5000), encoding="utf-8")
     elif target == "network":
         from morphogen.models.network import yamamoto_network
         from morphogen.models.text.sbml import to_antimony, to_sbml
@@ -41,6 +72,12 @@ def seed_corpus(target: str, folder: Path) -> Path:
         net = yamamoto_network()
         (folder / "yamamoto.xml").write_text(to_sbml(net), encoding="utf-8")
         (folder / "yamamoto.ant").write_text(to_antimony(net), encoding="utf-8")
+        body = to_antimony(net)
+        for name, head in (("import", f'import "{CANARY}"\n'),
+                           ("import-after-string", f'A is "//"; import "{CANARY}"\n'),
+                           ("import-after-comment", f'/* a */ import "{CANARY}"\n'),
+                           ("import-in-comment", f'// import "{CANARY}"\n')):
+            (folder / f"{name}.ant").write_text(head + body, encoding="utf-8")
     else:
         from morphogen.domains.mesh import Mesh
         from morphogen.domains.ply import save_ply
@@ -67,10 +104,11 @@ class FuzzResult:
         return self.returncode == 0
 
 
-def fuzz(target: str, seconds: int, artifacts: Path, max_len: int = 4096,
+def fuzz(target: str, seconds: int, artifacts: Path, max_len: int | None = None,
          runs: int | None = None, seed: int | None = None) -> FuzzResult:
     """Fuzz ``target`` for ``seconds`` (or until ``runs`` inputs, if given, whichever comes
-    first); each input may take at most 10 s and 2 GiB. A fixed ``seed`` with ``runs`` replays
+    first); each input may take at most 10 s and 2 GiB, and at most ``max_len`` bytes (default
+    :data:`MAX_LEN` of the target; a longer seed is cut). A fixed ``seed`` with ``runs`` replays
     the same inputs every time (the suite's check); without them each session explores anew.
 
     libFuzzer reads its memory as the process's peak RSS, which a child inherits from the
@@ -78,6 +116,7 @@ def fuzz(target: str, seconds: int, artifacts: Path, max_len: int = 4096,
     this process's own peak.
     """
     artifacts.mkdir(parents=True, exist_ok=True)
+    max_len = MAX_LEN[target] if max_len is None else max_len
     rss_limit = 2048 + resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024
     with tempfile.TemporaryDirectory(prefix=f"corpus-{target}-") as tmp:
         corpus = seed_corpus(target, Path(tmp))

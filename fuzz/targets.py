@@ -10,6 +10,7 @@ Run through ``python -m fuzz.run TARGET`` (``make fuzz`` runs every target for l
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
 import tempfile
@@ -17,6 +18,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 import atheris
+
+from fuzz.run import CANARY, CANARY_TEXT
 
 with atheris.instrument_imports(include=["morphogen"]):
     from morphogen.domains.ply import load_mesh
@@ -47,18 +50,35 @@ def ply(data: bytes) -> None:
         pass
 
 
+@functools.cache
+def _canary() -> Path:
+    """The canary file, written (once per process) before the first network input."""
+    CANARY.write_text(CANARY_TEXT, encoding="utf-8")
+    return CANARY
+
+
+class FileRead(AssertionError):
+    """libAntimony read another file while loading a network (the ``import`` canary)."""
+
+
 def network(data: bytes) -> None:
     """Antimony or SBML bytes (SBML when they start with ``<``, after blanks), written to a
     scratch ``.xml``/``.ant`` file, through ``load_network_file`` (libAntimony, libSBML, the
     mass-action check, the network model) and back through ``parse_model`` of the model file a
-    run records for it, so whatever loads also replays."""
+    run records for it, so whatever loads also replays. A trace of the canary file
+    (:data:`fuzz.run.CANARY`, which the seeds ``import``) in the model or the message means a
+    file was read: a finding."""
+    canary = _canary()
     path = _SCRATCH / ("input.xml" if data.lstrip()[:1] == b"<" else "input.ant")
     path.write_bytes(data)
     try:
         model = load_network_file(path)
         parse_model(model.source, name="fuzz")
-    except MorphogenError:
-        pass
+        seen = model.source
+    except MorphogenError as exc:
+        seen = str(exc)
+    if "FUZZ_CANARY" in seen or f"file '{canary}'" in seen:
+        raise FileRead(f"a network file made libAntimony read {canary}: {seen[:200]}")
 
 
 TARGETS: dict[str, Callable[[bytes], None]] = {"equations": equations, "ply": ply,

@@ -36,8 +36,27 @@ class BlowUpError(MorphogenError):
         )
 
 
+def round_down(value: float, digits: int = 6) -> float:
+    """``value`` cut (not rounded) to ``digits`` significant digits: the largest number of
+    that many digits that is not above ``value``, so a step suggested in a message passes the
+    check that suggested it (``0.005607578`` gives ``0.00560757``, where ``%.6g`` would print
+    ``0.00560758``, above the limit). Zero, negative and non-finite values come back as they
+    are."""
+    import math
+    from decimal import ROUND_FLOOR, Context, Decimal
+
+    if not (math.isfinite(value) and value > 0):
+        return value
+    cut = float(Context(prec=digits, rounding=ROUND_FLOOR).plus(Decimal(value)))
+    return cut if cut <= value else math.nextafter(cut, 0.0)
+
+
 class UnstableTimeStepError(MorphogenError):
-    """The explicit time step exceeds the diffusion stability limit."""
+    """The explicit time step exceeds the diffusion stability limit.
+
+    The suggested step in the message is the limit rounded *down* to 6 significant digits
+    (:func:`round_down`), so running with it passes this check.
+    """
 
     def __init__(self, dt: float, dt_max: float, scheme: str):
         self.dt = dt
@@ -45,7 +64,7 @@ class UnstableTimeStepError(MorphogenError):
         super().__init__(
             f"dt={dt:g} exceeds the {scheme} stability limit (diffusion and the linearised "
             "reaction, with a safety margin); "
-            f"use --dt {dt_max:.6g} or smaller (or --unsafe to run anyway)"
+            f"use --dt {round_down(dt_max):.6g} or smaller (or --unsafe to run anyway)"
         )
 
 
@@ -55,7 +74,7 @@ class DivergenceError(BlowUpError):
 
     Attributes:
         step, species, t: as for :class:`BlowUpError`.
-        dt_suggested: a step to retry with.
+        dt_suggested: a step to retry with (the message shows it rounded down to 6 digits).
         alternative: text after the suggested step, e.g. another scheme to try.
     """
 
@@ -69,5 +88,6 @@ class DivergenceError(BlowUpError):
         ValueError.__init__(
             self,
             f"run diverging at step {step} (t={t:g}) in species {names}: {what}; "
-            f"use --dt {dt_suggested:.6g} or smaller{alternative} (or --unsafe to run anyway)",
+            f"use --dt {round_down(dt_suggested):.6g} or smaller{alternative} (or --unsafe to run "
+            "anyway)",
         )

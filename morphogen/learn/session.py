@@ -20,9 +20,11 @@ from __future__ import annotations
 
 import io
 import json
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -39,7 +41,8 @@ from morphogen.learn.train import (
     init_state,
     make_train_step,
 )
-from morphogen.models.neural import save_neural_model
+from morphogen.models.neural import read_npz, save_neural_model
+from morphogen.util import guard
 from morphogen.util.io import ensure_writable_dir, write_atomic, write_npz
 from morphogen.util.progress import ProgressBar
 
@@ -122,29 +125,44 @@ def save_model(path: str | Path, run: Run) -> Path:
 def load_checkpoint(directory: str | Path) -> Run:
     """Read ``checkpoint.npz`` from a run directory.
 
+    Every entry is checked before anything is built from it: the ``meta`` JSON (settings of
+    the right types, within the memory guard), and each array's presence, kind and shape
+    against a fresh run of those settings, so a damaged or foreign file is one line.
+
     Raises:
-        MorphogenError: no checkpoint there, or it does not match this version's layout.
+        MorphogenError: no checkpoint there, or it is damaged or of another layout.
     """
     path = Path(directory) / CHECKPOINT
     if not path.is_file():
         raise MorphogenError(f"no training checkpoint in {directory} (expected {path})")
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {k: np.asarray(data[k]) for k in data.files}
-        meta = json.loads(str(arrays["meta"]))
-        config = TrainConfig.from_dict(meta["config"])
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise MorphogenError(f"cannot read training checkpoint {path}: {exc}") from None
+    arrays = read_npz(path, "training checkpoint")
+    meta = _meta(arrays, path)
+    config = _settings(meta.get("config"), path)
+    target_name = meta.get("target_name", "")
+    if not isinstance(target_name, str):
+        raise _damaged(path, "its target name is not a text")
     template = init_state(config)
-    weights = {k: jnp.asarray(arrays[f"weights/{k}"]) for k in template.weights}
+    for k, leaf in template.weights.items():
+        _check_entry(arrays, f"weights/{k}", leaf, path)
     leaves, treedef = jax.tree_util.tree_flatten(template.opt_state)
-    try:
-        opt_leaves = [
-            jnp.asarray(arrays[f"opt/{i}"], dtype=jnp.asarray(leaf).dtype)
-            for i, leaf in enumerate(leaves)
-        ]
-    except KeyError:
-        raise MorphogenError(f"training checkpoint {path} lacks optimiser state") from None
+    for i, leaf in enumerate(leaves):
+        _check_entry(arrays, f"opt/{i}", leaf, path)
+    _check_entry(arrays, "pool", template.pool, path)
+    _check_entry(arrays, "iteration", template.iteration, path)
+    key = jax.random.key_data(template.key) if _typed(template.key) else template.key
+    _check_entry(arrays, "key", key, path)
+    target, losses = arrays.get("target"), arrays.get("losses")
+    if target is None or target.ndim != 3 or target.shape[-1] != 3 or target.dtype.kind != "f":
+        raise _damaged(path, "its target image is missing or not an (S, S, 3) float array")
+    if losses is None or losses.ndim != 1 or losses.dtype.kind != "f":
+        raise _damaged(path, "its loss history is missing or not a list of numbers")
+    if int(arrays["iteration"]) < 0:
+        raise _damaged(path, "its iteration count is negative")
+    weights = {k: jnp.asarray(arrays[f"weights/{k}"]) for k in template.weights}
+    opt_leaves = [
+        jnp.asarray(arrays[f"opt/{i}"], dtype=jnp.asarray(leaf).dtype)
+        for i, leaf in enumerate(leaves)
+    ]
     state = TrainState(
         weights=weights,
         opt_state=jax.tree_util.tree_unflatten(treedef, opt_leaves),
@@ -152,10 +170,76 @@ def load_checkpoint(directory: str | Path) -> Run:
         iteration=jnp.asarray(arrays["iteration"], jnp.int32),
         key=jnp.asarray(arrays["key"], template.key.dtype),
     )
-    if state.pool.shape != template.pool.shape:
-        raise MorphogenError(f"training checkpoint {path}: pool shape does not match settings")
-    return Run(config, arrays["target"], state, [float(v) for v in arrays["losses"]],
-               meta.get("target_name", ""))
+    return Run(config, arrays["target"], state, [float(v) for v in losses], target_name)
+
+
+def _damaged(path: Path, what: str) -> MorphogenError:
+    return MorphogenError(f"training checkpoint {path} is damaged: {what}; restore it or start "
+                          "a new run")
+
+
+def _meta(arrays: dict[str, np.ndarray], path: Path) -> dict:
+    """The checkpoint's ``meta`` entry: one JSON object."""
+    entry = arrays.get("meta")
+    if entry is None or entry.ndim != 0 or entry.dtype.kind != "U":
+        raise _damaged(path, "it has no 'meta' text (is it a morphogen training checkpoint?)")
+    try:
+        meta = json.loads(str(entry))
+    except (ValueError, RecursionError):
+        raise _damaged(path, "its 'meta' entry is not valid JSON") from None
+    if not isinstance(meta, dict):
+        raise _damaged(path, "its 'meta' entry is not a JSON object")
+    return meta
+
+
+def _settings(data: object, path: Path) -> TrainConfig:
+    """The run's :class:`TrainConfig` from ``meta["config"]``: every setting of its field's
+    type (whole numbers for counts, numbers for rates, texts), within the memory guard."""
+    from dataclasses import fields
+
+    if not isinstance(data, dict):
+        raise _damaged(path, "its settings are not a JSON object")
+    defaults = TrainConfig()
+    for f in fields(TrainConfig):
+        if f.name not in data:
+            continue
+        value, default = data[f.name], getattr(defaults, f.name)
+        if isinstance(default, bool):
+            ok = isinstance(value, bool)
+        elif isinstance(default, int):
+            ok = isinstance(value, int) and not isinstance(value, bool)
+        elif isinstance(default, float):
+            ok = isinstance(value, int | float) and not isinstance(value, bool) \
+                and math.isfinite(value)
+        elif isinstance(default, tuple):
+            ok = isinstance(value, list | tuple) and all(
+                isinstance(v, int) and not isinstance(v, bool) for v in value)
+        else:  # texts (features) and the optional VGG weight file
+            ok = isinstance(value, str) or (value is None and default is None)
+        if not ok:
+            raise _damaged(path, f"setting {f.name} = {str(value)[:40]!r} has the wrong type")
+    try:
+        config = TrainConfig.from_dict(data)
+    except MorphogenError as exc:
+        raise _damaged(path, str(exc)) from None
+    try:
+        guard.check_memory(config.size * config.size, config.channels, batch=config.pool_size)
+        guard.check_memory(config.hidden, 2 * config.channels)  # the weights and their moments
+    except MorphogenError as exc:
+        raise _damaged(path, f"its settings are out of bounds ({exc})") from None
+    return config
+
+
+def _check_entry(arrays: dict[str, np.ndarray], name: str, like: Any, path: Path) -> None:
+    """``arrays[name]`` exists, has the shape of ``like`` and numbers of its kind."""
+    arr = arrays.get(name)
+    expected = np.shape(like)
+    kind = np.dtype(jnp.asarray(like).dtype).kind
+    if arr is None:
+        raise _damaged(path, f"entry {name!r} is missing")
+    if arr.shape != expected or arr.dtype.kind != kind:
+        raise _damaged(path, f"entry {name!r} is {arr.dtype} {arr.shape}, expected "
+                       f"{np.dtype(jnp.asarray(like).dtype)} {expected} for its settings")
 
 
 def _typed(key: jax.Array) -> bool:

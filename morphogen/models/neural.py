@@ -214,7 +214,9 @@ def rgb_channels(state: np.ndarray) -> np.ndarray:
 
 
 def check_weights(config: NeuralConfig, weights: Mapping[str, Any]) -> dict[str, np.ndarray]:
-    """Validate weight names and shapes against ``config``; returns float32 host copies."""
+    """Validate weight names, types and shapes against ``config``; returns float32 host
+    copies. Weights must be real numbers (integer or floating point): strings, booleans,
+    complex numbers and objects are refused rather than cast."""
     n, h = config.channels, config.hidden
     shapes = {"W0": (n, h), "b0": (h,), "W1": (h, n)}
     if config.learn_diffusion:
@@ -223,7 +225,13 @@ def check_weights(config: NeuralConfig, weights: Mapping[str, Any]) -> dict[str,
     for key, shape in shapes.items():
         if key not in weights:
             raise MorphogenError(f"neural model weights lack {key!r} (expected shape {shape})")
-        arr = np.asarray(weights[key], np.float32)
+        arr = np.asarray(weights[key])
+        if arr.dtype.kind not in "fiu":
+            raise MorphogenError(
+                f"neural model weight {key!r} holds {arr.dtype} values; weights are real "
+                "numbers (float32)"
+            )
+        arr = np.asarray(arr, np.float32)
         if arr.shape != shape:
             raise MorphogenError(
                 f"neural model weight {key!r} has shape {arr.shape}, expected {shape} for "
@@ -258,39 +266,111 @@ def save_neural_model(
     return write_npz(path, arrays)
 
 
+def read_npz(path: str | Path, what: str) -> dict[str, np.ndarray]:
+    """Every array of an ``.npz`` file, without unpickling; any damage is one line.
+
+    Raises:
+        MorphogenError: the file is missing, not a zip archive (truncated, corrupt), or holds
+            something that is not a plain array.
+    """
+    import zipfile
+    import zlib
+
+    path = Path(path)
+    if not path.is_file():
+        raise MorphogenError(f"{what} {path} does not exist (or is not a regular file)")
+    try:
+        with open(path, "rb") as fh:
+            if not zipfile.is_zipfile(fh):
+                raise MorphogenError(f"cannot read {what} {path}: not an .npz file (no "
+                                     "complete zip archive: truncated or damaged?)")
+            _check_sizes(fh, f"{what} {path}")
+            fh.seek(0)
+            with np.load(fh, allow_pickle=False) as data:
+                return {k: np.asarray(data[k]) for k in data.files}
+    except MorphogenError:
+        raise
+    except (OSError, ValueError, EOFError, KeyError, TypeError, AttributeError,
+            NotImplementedError, zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error) as exc:
+        reason = " ".join(str(exc).split())[:160] or type(exc).__name__
+        if "pickle" in reason:
+            reason = "it holds Python objects, which are never loaded (arrays of numbers only)"
+        raise MorphogenError(f"cannot read {what} {path}: {reason}") from None
+
+
+def _check_sizes(fh: Any, where: str) -> None:
+    """Refuse an archive that unpacks to more than the memory guard allows, or an array whose
+    header announces more data than its entry holds (numpy would allocate the announced size
+    before reading)."""
+    import math
+    import zipfile
+
+    from numpy.lib import format as npy
+
+    from morphogen.util.guard import LIMITS
+
+    with zipfile.ZipFile(fh) as archive:
+        infos = archive.infolist()
+        total = sum(info.file_size for info in infos)
+        if total > LIMITS.memory_bytes:
+            raise MorphogenError(f"cannot read {where}: it unpacks to {total / 2**30:.3g} GiB, "
+                                 f"more than the limit of {LIMITS.memory_bytes / 2**30:g} GiB")
+        for info in infos:
+            with archive.open(info) as member:
+                if member.read(6) != npy.MAGIC_PREFIX:
+                    continue  # not an array: np.load refuses it
+                major = member.read(2)[:1]
+                if major not in (b"\x01", b"\x02", b"\x03"):
+                    continue  # an unknown version: np.load refuses it
+                read_header = npy.read_array_header_1_0 if major == b"\x01" else \
+                    npy.read_array_header_2_0  # 3.0 differs only in the header's encoding
+                shape, _, dtype = read_header(member)
+                if math.prod(shape) * dtype.itemsize > info.file_size:
+                    raise MorphogenError(
+                        f"cannot read {where}: entry {info.filename!r} announces a {shape} "
+                        f"array but holds {info.file_size} bytes (truncated or damaged)"
+                    )
+
+
 def read_neural_file(path: str | Path) -> tuple[NeuralConfig, dict[str, np.ndarray], dict]:
     """Read a file written by :func:`save_neural_model`: ``(config, weights, metadata)``.
 
+    The file is checked against one schema (:func:`morphogen.models.neural_schema.check_info`
+    for the ``config`` entry, :func:`check_weights` for the arrays): a ``config`` JSON object
+    with ``format``, an integer ``version`` this morphogen reads, the :class:`NeuralConfig`
+    fields and a ``metadata`` object; the arrays ``W0``, ``b0``, ``W1`` (and ``c_hat``) of
+    real numbers, and nothing else.
+
     Raises:
-        MorphogenError: the file is missing, not a neural model, or damaged.
+        MorphogenError: the file is missing, not a neural model, damaged, or of a newer format.
     """
+    from morphogen.models.neural_schema import check_info
+
     path = Path(path)
-    if not path.is_file():
-        raise MorphogenError(f"neural model file {path} does not exist")
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {k: np.asarray(data[k]) for k in data.files}
-    except (OSError, ValueError) as exc:
-        raise MorphogenError(f"cannot read neural model file {path}: {exc}") from None
+    arrays = read_npz(path, "neural model file")
     if "config" not in arrays:
         raise MorphogenError(f"{path} is not a morphogen neural model (no 'config' entry)")
+    entry = arrays.pop("config")
+    if entry.ndim != 0 or entry.dtype.kind != "U":
+        raise MorphogenError(f"{path}: the 'config' entry must be one JSON text")
     try:
-        info = json.loads(str(arrays.pop("config")))
-    except json.JSONDecodeError:
+        info = json.loads(str(entry))
+    except (ValueError, RecursionError):
         raise MorphogenError(f"{path}: the 'config' entry is not valid JSON") from None
-    if info.get("format") != FORMAT:
+    shape, metadata = check_info(info, str(path), FORMAT, FORMAT_VERSION)
+    config = NeuralConfig(**shape)
+    expected = {"W0", "b0", "W1"} | ({"c_hat"} if config.learn_diffusion else set())
+    extra = sorted(set(arrays) - expected)
+    if extra:
         raise MorphogenError(
-            f"{path} is not a morphogen neural model (format {info.get('format')!r})"
-        )
-    if int(info.get("version", 0)) > FORMAT_VERSION:
-        raise MorphogenError(
-            f"{path} was written by a newer morphogen (format version {info['version']}); upgrade"
+            f"{path}: unexpected entry {extra[0]!r}; a neural model file holds config and the "
+            f"weights {', '.join(sorted(expected))}"
         )
     try:
-        config = NeuralConfig(**info["config"])
-    except TypeError:
-        raise MorphogenError(f"{path}: unknown fields in the model configuration") from None
-    return config, check_weights(config, arrays), dict(info.get("metadata", {}))
+        weights = check_weights(config, arrays)
+    except MorphogenError as exc:
+        raise MorphogenError(f"{path}: {exc}") from None
+    return config, weights, metadata
 
 
 def load_neural_model(path: str | Path) -> Model:

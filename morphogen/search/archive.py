@@ -40,6 +40,10 @@ DEFAULT_ARCHIVE = Path("runs") / "index.sqlite"
 
 CONFIG = "config.json"
 
+ARCHIVE_VERSION = 1
+"""Format version of the index, kept in SQLite's ``user_version`` (0, an archive written
+before versions were recorded, reads as 1). An archive of a newer version is refused."""
+
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS runs (
     id TEXT PRIMARY KEY,
@@ -117,7 +121,16 @@ class Archive:
                 )
             self.path.parent.mkdir(parents=True, exist_ok=True)
         with self._db() as db, db:
+            version = db.execute("PRAGMA user_version").fetchone()[0]
+            if version > ARCHIVE_VERSION:
+                raise MorphogenError(
+                    f"run archive {self.path} has format version {version}, written by a newer "
+                    f"morphogen; this one reads version {ARCHIVE_VERSION} and older: upgrade "
+                    "morphogen to use it"
+                )
             db.executescript(_SCHEMA)
+            if version < ARCHIVE_VERSION:
+                db.execute(f"PRAGMA user_version = {ARCHIVE_VERSION}")
 
     @contextmanager
     def _db(self) -> Iterator[sqlite3.Connection]:
@@ -173,6 +186,13 @@ class Archive:
                  g.seconds, g.sheet, _pack(g.state)),
             )
             db.executemany("INSERT INTO individuals VALUES (?,?,?,?,?,?,?)", rows)
+
+    def set_generations(self, run_id: str, generations: int, config: dict[str, Any]) -> None:
+        """Record a new planned total of generations (and the configuration holding it); the
+        run is ``running`` again until it reaches the total."""
+        with self._db() as db, db:
+            db.execute("UPDATE runs SET generations=?, config=?, status='running' WHERE id=?",
+                       (int(generations), json.dumps(config), run_id))
 
     def set_status(self, run_id: str, status: str) -> None:
         with self._db() as db, db:

@@ -215,6 +215,33 @@ def _write_qd(directory: Path, problem: Problem, strategy: MapElites, state: Any
     qd_report.write_qd_plot(directory, history, strategy.cell_count, label)
 
 
+def set_generations(run_id: str, archive: Archive, generations: int) -> None:
+    """Make ``generations`` the new total of a recorded run (``evolve --resume RUN
+    --generations N``): more than planned extends it, fewer ends it early, but never below the
+    generations already recorded. The run's ``config.json`` and its archive row both change, so
+    every later resume keeps the new total; a changed run is ``running`` until it ends.
+
+    Raises:
+        MorphogenError: ``generations`` is below the generations done (or below 1).
+    """
+    run = archive.run(run_id)
+    config = run["config"]
+    done = len(archive.generations(run_id))
+    if generations < max(done, 1):
+        raise MorphogenError(
+            f"run {run_id} has already done {done} generations; --generations is the run's new "
+            f"total, so give at least {max(done, 1)} (or leave it out to keep "
+            f"{config['generations']})"
+        )
+    if generations == config["generations"]:
+        return
+    config = {**config, "generations": int(generations)}
+    config_file = Path(run["dir"]) / CONFIG
+    if config_file.is_file():
+        write_json(config_file, config)
+    archive.set_generations(run_id, int(generations), config)
+
+
 def resolve_run(ref: str, archive_path: str | None = None) -> tuple[str, Archive]:
     """Find a run by directory (reading its ``config.json``) or by id in the archive."""
     import json

@@ -43,9 +43,14 @@ def _rule(name: str) -> str:
 
 
 def record(name: str) -> dict:
-    """The training record of a shipped rule (``{}`` when its ``.json`` is missing)."""
+    """The training record of a shipped rule (``{}`` when its ``.json`` is missing, unreadable
+    or not a JSON object: the record only describes the rule, the ``.npz`` is the rule)."""
     path = FOLDER / f"{_rule(name)}.json"
-    return json.loads(path.read_text()) if path.is_file() else {}
+    try:
+        info = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
+    except (OSError, ValueError, RecursionError):
+        return {}
+    return info if isinstance(info, dict) else {}
 
 
 def load_rule(name: str) -> Model:
@@ -60,7 +65,9 @@ def load_rule(name: str) -> Model:
     model = load_neural_model(FOLDER / f"{rule}.npz")
     info = record(rule)
     text = info.get("description", rule)
+    text = text if isinstance(text, str) else rule
     iters = info.get("iterations")
+    iters = iters if isinstance(iters, int) and not isinstance(iters, bool) else None
     trained = f", {iters} training iterations" if iters else ""
     return replace(
         model,
@@ -75,6 +82,7 @@ def describe_rule(name: str) -> str:
     rule = _rule(name)
     info = record(rule)
     settings = info.get("settings", {})
+    settings = settings if isinstance(settings, dict) else {}
     n, h = settings.get("channels", "?"), settings.get("hidden", "?")
     lines = [
         f"{PREFIX}{rule}: neural RD rule trained on {info.get('description', rule)}",

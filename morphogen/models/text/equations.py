@@ -47,6 +47,7 @@ from morphogen.models.expr import (
 )
 from morphogen.models.model import INITIAL_NAMES, Array, Model, Params
 from morphogen.models.text.terms import check_coefficient, principal_tensor, split_equation
+from morphogen.models.text.toml_text import MAX_DEPTH, KeyIndex, too_deep
 from morphogen.util import guard
 from morphogen.util.io import read_text
 
@@ -57,6 +58,10 @@ KEYS = (
     "parameters", "equations", "initial", "excited", "presets", "anisotropy",
 )  # fmt: skip
 """Top-level keys and tables of a model file."""
+
+_TOO_DEEP = (f"arrays or tables nested more than {MAX_DEPTH} deep; a model file needs at most "
+             "two levels (e.g. species = [\"u\", \"v\"])")
+
 
 def load_model_file(path: str | os.PathLike) -> Model:
     """Read and parse a model file (see :func:`parse_model`)."""
@@ -80,10 +85,15 @@ def parse_model(
     """
     text = text.removeprefix("\ufeff")
     src = _Source(text, path)
+    deep = too_deep(text)
+    if deep is not None:
+        raise src.error(_TOO_DEEP, deep)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise src.toml_error(exc) from None
+    except RecursionError:  # too_deep missed it (an unusual string form): same answer
+        raise src.error(_TOO_DEEP) from None
     unknown = sorted(set(data) - set(KEYS))
     if unknown:
         raise src.error(f"unknown key {unknown[0]!r}; a model file may have {', '.join(KEYS)}")
@@ -198,7 +208,13 @@ def _diffusion(coefficients: Sequence[Evaluator | None], tensors: Mapping[int, t
 
 def _equation(value, s, species, reaction_names, coef_names, src):
     """Compile one equation into (reaction evaluator, diffusion evaluator or None)."""
-    text = _expression_text(value, src, "equations", s, f"the equation for {s}")
+    if not isinstance(value, str):
+        shown = value if isinstance(value, int | float) and not isinstance(value, bool) else "..."
+        raise src.error(
+            f"the equation for {s} must be an expression in quotes, e.g. {s} = \"{shown}\"",
+            src.locate("equations", s),
+        )
+    text = value
     try:
         tree = parse(text, extra_functions={"lap": 1})
         reaction, total = split_equation(tree, text, s, species)
@@ -391,6 +407,7 @@ class _Source:
     def __init__(self, text: str, path: str | os.PathLike | None):
         self.lines = text.splitlines()
         self.prefix = f"{path}: " if path else ""
+        self._index: KeyIndex | None = None
 
     def error(self, message: str, at: tuple[int, int] | None = None) -> MorphogenError:
         if at is None:
@@ -423,32 +440,24 @@ class _Source:
     def locate(self, section, key, subkey=None, *, inside_string=False):
         """File ``(line, column)`` of ``key`` in ``[section]`` (``None``: top level), or of the
         first character inside its string value when ``inside_string``; ``None`` if not found.
+        Constant time: the lines are indexed once (:class:`KeyIndex`), on the first call.
         """
-        current = None
-        quoted = re.escape(key)
-        pattern = re.compile(rf"""^\s*(?:{quoted}|"{quoted}"|'{quoted}')\s*=\s*""")
-        for number, line in enumerate(self.lines, start=1):
-            header = re.match(r"^\s*\[\s*([^\[\]]+?)\s*\]", line)
-            if header:
-                current = re.sub(r"\s*\.\s*", ".", header.group(1))
-                continue
-            if current != section:
-                continue
-            match = pattern.match(line)
-            if not match:
-                continue
-            if not inside_string and subkey is None:
-                return number, len(line) - len(line.lstrip()) + 1
-            position = match.end()
-            if subkey is not None:
-                sub = re.compile(rf"\b{re.escape(subkey)}\s*=\s*").search(line, position)
-                if not sub:
-                    return number, position + 1
-                position = sub.end()
-                if not inside_string:
-                    return number, sub.start() + 1
-            return self._string_start(number, line, position)
-        return None
+        if self._index is None:
+            self._index = KeyIndex(self.lines)
+        found = self._index.find(section, key)
+        if found is None:
+            return None
+        number, line, position = found
+        if not inside_string and subkey is None:
+            return number, len(line) - len(line.lstrip()) + 1
+        if subkey is not None:
+            sub = re.compile(rf"\b{re.escape(subkey)}\s*=\s*").search(line, position)
+            if not sub:
+                return number, position + 1
+            position = sub.end()
+            if not inside_string:
+                return number, sub.start() + 1
+        return self._string_start(number, line, position)
 
     def _string_start(self, number: int, line: str, position: int) -> tuple[int, int, bool]:
         """``(line, column, escapes)`` of a value's first character; ``escapes`` is true for

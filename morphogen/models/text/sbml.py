@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -62,7 +63,13 @@ def read_network_file(path: str | os.PathLike) -> ReactionNetwork:
 
 
 def read_antimony(text: str, where: str = "Antimony text") -> ReactionNetwork:
-    """Translate Antimony to SBML with libAntimony, then :func:`read_sbml`."""
+    """Translate Antimony to SBML with libAntimony, then :func:`read_sbml`.
+
+    Raises:
+        MorphogenError: the text is not Antimony, or it has an ``import`` statement (refused
+            before libAntimony sees the text, which would read the named file).
+    """
+    refuse_imports(text, where)
     import antimony
 
     antimony.clearPreviousLoads()
@@ -73,6 +80,49 @@ def read_antimony(text: str, where: str = "Antimony text") -> ReactionNetwork:
     sbml = _antimony_text(antimony.getSBMLString, module)
     antimony.clearPreviousLoads()
     return read_sbml(sbml, where=where, name=module)
+
+
+_ANTIMONY_SKIPPED = re.compile(
+    r"""//[^\n\r]*|#[^\n\r]*|/\*[\s\S]*?(?:\*/|\Z)|"(?:\\[^\n\r]|[^"\\\n\r])*"|(?P<open>")"""
+)
+"""What libAntimony does not read as statements: ``//`` and ``#`` comments (to the end of the
+line, ``\\r`` included), ``/* */`` comments (not nested; an unclosed one runs to the end) and
+double-quoted strings (backslash escapes, never across a line break); group ``open`` is a quote
+that no string closes."""
+_IMPORT = re.compile(r"(?<![A-Za-z_])import(?![A-Za-z0-9_])")
+
+
+def refuse_imports(text: str, where: str = "Antimony text") -> None:
+    """Raise if Antimony ``text`` has an ``import`` statement outside comments and strings.
+
+    ``import "FILE"`` makes libAntimony open and parse any file the process can read (its
+    error messages then quote that file), so network files may not import: they must hold the
+    whole model. It is the only Antimony statement that reads a file. The check errs on the
+    side of refusing: ``import`` after a digit or a non-ASCII letter counts too, and a quote
+    left open on its line (which libAntimony refuses as well) is refused here, so that no
+    string can hide what follows it.
+    """
+    pos = 0
+    for skipped in (*_ANTIMONY_SKIPPED.finditer(text), None):
+        stop = len(text) if skipped is None else skipped.start()
+        found = _IMPORT.search(text, pos, stop)
+        if found is not None:
+            raise MorphogenError(
+                f"{where}: line {_line(text, found.start())}: 'import' is not allowed in a "
+                "network file (it would read another file); paste the imported model into "
+                "this file instead"
+            )
+        if skipped is not None and skipped.group("open"):
+            raise MorphogenError(f"{where}: line {_line(text, stop)}: a string is not closed "
+                                 "on its line; add the closing \"")
+        if skipped is not None:
+            pos = skipped.end()
+
+
+def _line(text: str, index: int) -> int:
+    """1-based line of ``text[index]``; ``\\n``, ``\\r`` and ``\\r\\n`` end lines."""
+    head = text[:index]
+    return head.count("\n") + head.count("\r") - head.count("\r\n") + 1
 
 
 def read_sbml(text: str, where: str = "SBML text", name: str = "network") -> ReactionNetwork:
