@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from morphogen.engine.simulate import simulate
-from morphogen.flowers.planar import lattice_mesh
+from morphogen.flowers.planar import grid_mesh, lattice_mesh
 from morphogen.models.model import Model
 
 D = 0.5
@@ -40,6 +40,7 @@ def _predicted_variance(mesh, u, omega):
     return out / mesh.areas**2
 
 
+@pytest.mark.slow
 def test_noise_variance_matches_eq17_and_scales_as_one_over_omega():
     u = jnp.full((1, 144), 2.0, jnp.float32)
     variances = []
@@ -63,6 +64,7 @@ def test_negative_concentrations_add_no_noise():
     assert np.abs(_samples(mesh, u, n=4)).max() == 0.0
 
 
+@pytest.mark.slow
 def test_deterministic_limit_and_seeding():
     model = heat()
     base = lattice_mesh(16, 16, spacing=0.1)
@@ -81,3 +83,69 @@ def test_deterministic_limit_and_seeding():
     other = simulate(model, meshes[1e4], u0, model.params, seed=2, **run).state
     assert np.array_equal(first, again)
     assert not np.allclose(first, other)
+
+
+def _noise_draws(mesh, c, d, dt, n, seed=5):
+    """``n`` draws of eq. 17's increment (concentration change) at the uniform state ``c``."""
+    u = jnp.full((1, mesh.n_vertices), c, jnp.float32)
+    bcs = mesh.boundaries(("u",))
+    keys = jax.random.split(jax.random.PRNGKey(seed), n)
+    draw = jax.jit(jax.vmap(lambda k: mesh.diffusion_noise(u, (d,), bcs, dt, k)[0]))
+    return np.asarray(draw(keys), np.float64)
+
+
+def _stationary_covariance(mesh, omega, c=1.0, d=1.0, n=16000):
+    """Stationary covariance of the explicit stochastic scheme ``u' = (I + dt D L) u + xi`` about
+    the uniform state ``c``: ``Sigma = sum_k M^k Q M^kT`` with ``Q`` the covariance of eq. 17's
+    increment (measured from draws), summed by doubling."""
+    ops = mesh.ops
+    n_v = mesh.n_vertices
+    lap = np.asarray(ops.laplacian(jnp.eye(n_v, dtype=jnp.float32)), np.float64).T
+    dt = 0.05 * 2.0 / (d * ops.spectral_radius())  # small: Euler's inflation stays < 3 %
+    xi = _noise_draws(mesh.replace(omega=omega), c, d, dt, n)
+    q = xi.T @ xi / n
+    m = np.eye(n_v) + dt * d * lap
+    sigma = q
+    for _ in range(17):  # 2**17 steps: t = 2**17 dt, several times the slowest decay time
+        sigma = sigma + m @ sigma @ m.T
+        m = m @ m
+    return sigma
+
+
+@pytest.mark.slow
+def test_stationary_noise_is_a_poisson_count_independent_of_triangle_size():
+    """Eq. 17 converts masses to molecule numbers with Omega "independently of the size of
+    triangles": at equilibrium a region of area a of a closed domain of area A at concentration c
+    holds Omega c a molecules with the multinomial variance Omega c a (1 - a/A), so the mass in
+    a fixed region has variance c a (1 - a/A) / Omega on any mesh, and each vertex region
+    A_i a concentration variance c / (Omega A_i). The unit square on a coarse grid (spacing
+    1/7) and one about twice as fine (1/15); the region x < 1/2 has the same area on both."""
+    c, omega = 1.0, 1e4
+    predicted = c * 0.5 * (1 - 0.5) / omega
+    region_var = {}
+    for n in (8, 16):
+        mesh = grid_mesh(n, n, dx=1.0 / (n - 1))
+        sigma = _stationary_covariance(mesh, omega, c)
+        areas = mesh.areas
+        w = np.where(mesh.vertices[:, 0] < 0.5, areas, 0.0)
+        assert w.sum() == pytest.approx(0.5, rel=1e-9)
+        region_var[n] = float(w @ sigma @ w)
+        assert region_var[n] == pytest.approx(predicted, rel=0.06)
+        per_vertex = omega * areas * np.diag(sigma) / c  # molecules' relative variance x N
+        assert np.mean(per_vertex) == pytest.approx(1.0, abs=0.06)
+        assert np.all(np.abs(per_vertex - 1.0) < 0.1)
+    assert region_var[16] / region_var[8] == pytest.approx(1.0, abs=0.06)
+
+
+@pytest.mark.slow
+def test_flux_noise_amplitude_scales_as_omega_to_the_minus_half():
+    """The mass carried across a fixed line in one step (the stochastic flux of eq. 17) has a
+    standard deviation proportional to Omega^(-1/2)."""
+    mesh = grid_mesh(8, 8, dx=1.0 / 7)
+    w = np.where(mesh.vertices[:, 0] < 0.5, mesh.areas, 0.0)
+    omegas = np.array([1e2, 1e4, 1e6])
+    sd = [np.std(_noise_draws(mesh.replace(omega=om), 2.0, 0.5, 1e-3, 3000) @ w)
+          for om in omegas]
+    slope = np.polyfit(np.log(omegas), np.log(sd), 1)[0]
+    assert slope == pytest.approx(-0.5, abs=0.02)
+    assert sd[0] > 0

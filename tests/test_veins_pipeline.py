@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -89,12 +91,17 @@ def test_platycodon_example_at_reduced_size(tmp_path):
     from morphogen.flowers.pipeline import load_pipeline
 
     spec = load_pipeline("examples/flowers/platycodon.toml")
+    assert spec["mesh"]["shape"] == "bell" and spec["mesh"]["point"] > 0  # pointed lobes
     spec["mesh"]["edge"] = 0.04
     veins = spec["stage"][0]
-    veins.update(points=1500, step=0.08, kill=0.2, influence=0.6)
+    assert veins["refill"] > 0 and veins["min_branch"] > 2 * veins["step"]
+    veins.update(points=100, refill=40, step=0.08, kill=0.1, birth=0.16, influence=0.5,
+                 min_branch=0.24)
     mesh = run_pipeline(spec, tmp_path / "out")
     f = mesh.fields
     vein = f["vein"] > 0.5
+    record = json.loads((tmp_path / "out" / "pipeline.json").read_text())["stages"][0]
+    assert record["stub_share"] == 0.0 and record["max_order"] >= 2  # twigs pruned
     # one main vein per petal, rooted at the pedicel, reaching every lobe
     with np.load(tmp_path / "out" / "01-veins" / "veins.npz") as graph:
         assert len(graph["seeds"]) == 5
@@ -106,12 +113,14 @@ def test_platycodon_example_at_reduced_size(tmp_path):
     assert f["pigment"][~vein].max() < 1.0 and f["pigment"][~vein].min() < 0.01
 
 
+@pytest.mark.slow
 def test_dianthus_example_at_reduced_size(tmp_path):
     from morphogen.flowers.pipeline import load_pipeline
 
     spec = load_pipeline("examples/flowers/dianthus.toml")
+    assert spec["mesh"]["shape"] == "dianthus"  # the five-petal flower of fig. 12
     spec["mesh"]["edge"] = 0.175  # final units (scale 5)
-    spec["stage"][0].update(points=600, step=0.3, kill=0.7, influence=3.0)
+    spec["stage"][0].update(points=1500, step=0.3, kill=0.7, influence=3.0)
     spec["stage"][2].update(steps=300, dt=1e-3, omega=1e9)  # t = 0.3, as 3 000 steps of 1e-4
     mesh = run_pipeline(spec, tmp_path / "out")
     f = mesh.fields
@@ -123,6 +132,16 @@ def test_dianthus_example_at_reduced_size(tmp_path):
     assert np.median(m[ahead & vein]) > 10 * np.median(m[ahead & ~vein])
     assert m[(f["margin"] > 0.5) & (f["s"] > 0.8)].max() < 0.05  # stopped before the margin
     assert np.allclose(f["pigment"], 1 / (1 + np.exp(-(m - 0.3) / 0.03)))
+    # every petal has its own veins, each vein on its own petal (same_piece)
+    with np.load(tmp_path / "out" / "01-veins" / "veins.npz") as graph:
+        organ_of_face = f["organ"][mesh.faces[:, 0]]
+        node_organ = organ_of_face[graph["face"]]
+        root_organ = f["organ"][graph["seeds"]]
+        assert set(np.unique(root_organ)) == {0.0, 1.0, 2.0, 3.0, 4.0}
+        edges = graph["edges"]
+        assert np.all(node_organ[edges[:, 0]] == node_organ[edges[:, 1]])
+    for k in range(5):
+        assert (vein & (f["organ"] == k)).sum() > 20
 
 
 def test_overlay_veins_mixes_by_thickness():

@@ -18,7 +18,8 @@ def _floats(text: str) -> list[float]:
         raise argparse.ArgumentTypeError(message) from None
 
 
-SHAPES = ("petal", "corolla", "tube", "urn", "bell", "two_lipped", "urn_flower", "orchid")
+SHAPES = ("petal", "corolla", "tube", "urn", "bell", "two_lipped", "bilabiate", "urn_flower",
+          "orchid", "dianthus")
 """The shapes of :data:`morphogen.flowers.SHAPES` (listed here so that the parser does not import
 the mesh code)."""
 

@@ -6,6 +6,7 @@ sequence of simulations (§3.1-3.4); this package supplies the shape and prepatt
 
 from morphogen.flowers.organs import Organ as Organ
 from morphogen.flowers.organs import assemble as assemble
+from morphogen.flowers.organs import dianthus as dianthus
 from morphogen.flowers.organs import orchid as orchid
 from morphogen.flowers.organs import urn_flower as urn_flower
 from morphogen.flowers.planar import grid_mesh as grid_mesh
@@ -17,6 +18,7 @@ from morphogen.flowers.sampling import seed_field as seed_field
 from morphogen.flowers.sampling import surface_points as surface_points
 from morphogen.flowers.shapes import SHAPES as SHAPES
 from morphogen.flowers.shapes import bell as bell
+from morphogen.flowers.shapes import bilabiate as bilabiate
 from morphogen.flowers.shapes import corolla as corolla
 from morphogen.flowers.shapes import petal as petal
 from morphogen.flowers.shapes import tube as tube
@@ -27,3 +29,4 @@ from morphogen.flowers.sizing import make_shape as make_shape
 from morphogen.flowers.veins import VeinGraph as VeinGraph
 from morphogen.flowers.veins import space_colonisation as space_colonisation
 from morphogen.flowers.veins import vein_fields as vein_fields
+from morphogen.flowers.veins import vein_statistics as vein_statistics

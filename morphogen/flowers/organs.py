@@ -178,3 +178,39 @@ def urn_flower(
             angle = 360.0 * (k + 0.5 * (sepals == lobes)) / sepals
             organs.append(Organ(blade, "sepal", angle, 0.9 * ring, -0.25 * sepal_length, tilt))
     return assemble(organs, name="urn-flower")
+
+
+def dianthus(
+    petals: int = 5,
+    length: float = 1.0,
+    *,
+    width: float = 0.8,
+    base_width: float = 0.12,
+    teeth: int = 5,
+    tooth_depth: float = 0.05,
+    toothed_from: float = 0.65,
+    tilt: float = 8.0,
+    cup: float = 0.05,
+    curl: float = 0.05,
+    edge: float = 0.02,
+) -> Mesh:
+    """A Dianthus barbatus flower (Ringham §4.4, fig. 12): ``petals`` separate, toothed
+    :func:`~morphogen.flowers.shapes.petal` blades (``length`` long, ``width`` wide, narrow
+    claws of ``base_width``; ``teeth`` teeth each side of the tip, ``tooth_depth`` deep, from
+    ``toothed_from`` of the length) spread around the centre like the spokes of a wheel:
+    petal ``k`` points at ``90 + 360 k / petals`` degrees, its claw ``0.06 length`` from the
+    centre, raised by ``tilt`` degrees, each a little above the one before (they overlap near
+    their widest part, as on the plant). Fields and sets as for :func:`assemble`; each petal
+    keeps its own ``s``, ``lateral``, ``margin``, ``base`` and ``midline``.
+    """
+    from morphogen.flowers.shapes import petal
+
+    if not (isinstance(petals, int | np.integer) and 2 <= petals <= 12):
+        raise MorphogenError(f"dianthus: petals must be an integer from 2 to 12, got {petals}")
+    if not 0 <= tilt <= 60:
+        raise MorphogenError(f"dianthus: tilt must be in [0, 60] degrees, got {tilt}")
+    blade = petal(length, width, edge=edge, notch=0.0, base_width=base_width, cup=cup,
+                  curl=curl, teeth=teeth, tooth_depth=tooth_depth, toothed_from=toothed_from)
+    organs = [Organ(blade, "petal", 90.0 + 360.0 * k / petals, 0.06 * length,
+                    0.01 * length * k, tilt) for k in range(petals)]
+    return assemble(organs, name=f"dianthus-{petals}")

@@ -31,7 +31,8 @@ parameters, initial values, boundary values or the anisotropy direction. ::
     kind = "veins"                # vein_thickness, vein_distance; graph in veins.npz
     seeds = "base"                # a vertex set or an expression (> 0.5 is a seed)
     points = 4000                 # attraction points; optional influence, kill, step (mesh
-    iterations = 400              # units), density, gamma, tip_radius, seed
+    iterations = 400              # units), density, gamma, tip_radius, seed, refill, birth,
+                                  # min_branch, same_piece
 
     [[stage]]                     # a simulation: any library model or model file
     kind = "simulate"
@@ -75,7 +76,8 @@ _KEYS = {
     "fields": {"fields", "show", "cmap"},
     "points": {"field", "count", "density", "low", "high", "seed"},
     "veins": {"seeds", "points", "influence", "kill", "step", "iterations", "density", "gamma",
-              "tip_radius", "seed", "show", "cmap"},
+              "tip_radius", "seed", "refill", "birth", "min_branch", "same_piece", "show",
+              "cmap"},
     "simulate": {"model", "preset", "steps", "time", "dt", "seed", "init", "init_options",
                  "params", "initial", "boundary", "directions", "omega", "outputs", "show",
                  "cmap", "unsafe", "scheme", "rtol", "atol"},
@@ -283,14 +285,15 @@ def grow_veins(stage: Mapping[str, Any], mesh: Mesh, seed: int = 0):
         seeds = np.flatnonzero(evaluate(spec, mesh) > 0.5)
     if seeds.size == 0:
         raise MorphogenError(f"veins: seeds {spec!r} select no vertex")
-    lengths = {k: float(stage[k]) for k in ("influence", "kill", "step", "tip_radius")
-               if k in stage}
+    lengths = {k: float(stage[k]) for k in ("influence", "kill", "step", "tip_radius", "birth",
+                                            "min_branch") if k in stage}
     density = stage.get("density")
     graph = space_colonisation(
         mesh, seeds, points=_integer(stage, "points", 2000),
         iterations=_integer(stage, "iterations", 400), gamma=float(stage.get("gamma", 3.0)),
         density=None if density is None else evaluate(density, mesh),
-        seed=_integer(stage, "seed", seed), **lengths)
+        seed=_integer(stage, "seed", seed), refill=_integer(stage, "refill", 0),
+        same_piece=bool(stage.get("same_piece", False)), **lengths)
     return graph, vein_fields(mesh, graph)
 
 
@@ -316,8 +319,14 @@ def _veins_stage(stage, mesh: Mesh, spec, stage_dir: Path, view: Any, pictures: 
     if pictures:
         write_png(stage_dir / "out.png", render_mesh(mesh.vertices, mesh.faces, colours,
                                                      view=view))
+    from morphogen.flowers.veins import vein_statistics
+
+    stats = vein_statistics(graph, float(mesh.areas.sum()))
     return fields, {"nodes": len(graph.nodes), "remaining_points": len(graph.remaining),
-                    "max_order": int(graph.order.max())}, colours
+                    "max_order": int(graph.order.max()), "tips": stats["tips"],
+                    "stub_share": round(stats["stub_share"], 4),
+                    "vein_length": round(stats["length"], 4),
+                    "vein_spacing": round(stats["spacing"], 5)}, colours
 
 
 def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pictures: bool,

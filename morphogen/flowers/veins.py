@@ -13,8 +13,15 @@ attraction points ``s``:
    ``D`` the step length and ``P`` the closest point on the mesh;
 3. every point closer than the kill distance ``d_k`` to a node is removed.
 
-Growth stops when no point is left, no node grows, or after ``iterations``. The result is a
-forest rooted at the seed vertices. Thickness follows the pipe model (Murray's law):
+Growth stops when no point is left, no node grows, or after ``iterations``. Two options give
+denser, more hierarchical venation. ``refill`` draws new candidate points each iteration and
+keeps those farther than the birth distance ``d_b`` from every vein node and every other point
+(in Runions et al. new sources appear as the leaf grows; here the surface is fixed, so points
+keep appearing in the gaps the veins leave, and late veins branch off early ones).
+``min_branch`` removes terminal branches shorter than that length once growth ends (a point
+near an existing vein pulls one node out of it and is killed: a stub of one or two nodes that
+is not a vein). The result is a forest rooted at the seed vertices. Thickness follows the pipe
+model (Murray's law):
 ``r(v)^gamma = sum_children r(c)^gamma`` with radius ``r_tip`` at the tips, i.e.
 ``r(v) = r_tip n(v)^(1/gamma)`` for ``n(v)`` tips downstream of ``v``; the Strahler order is
 1 at tips and rises by one where two branches of equal order meet.
@@ -119,16 +126,23 @@ class SurfaceProjector:
         self.tree = cKDTree(self.vertices[self.faces].mean(axis=1))
         self.k = min(_NEIGHBOUR_FACES, len(self.faces))
 
-    def __call__(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(Q, 3)`` points -> ``(Q, 3)`` closest surface points and ``(Q,)`` faces."""
+    def __call__(self, points: np.ndarray, labels: np.ndarray | None = None,
+                 face_label: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(Q, 3)`` points -> ``(Q, 3)`` closest surface points and ``(Q,)`` faces; with
+        ``labels`` (``(Q,)``) only faces whose ``face_label`` matches count (face ``-1`` where
+        none of the nearest faces does)."""
         _, cand = self.tree.query(points, k=self.k)
         cand = cand.reshape(len(points), -1)
         tri = self.vertices[self.faces[cand]]
         q = closest_on_triangles(points[:, None, :], tri[..., 0, :], tri[..., 1, :],
                                  tri[..., 2, :])
-        best = np.argmin(((q - points[:, None, :]) ** 2).sum(-1), axis=1)
+        d2 = ((q - points[:, None, :]) ** 2).sum(-1)
+        if labels is not None:
+            d2 = np.where(face_label[cand] == labels[:, None], d2, np.inf)
+        best = np.argmin(d2, axis=1)
         rows = np.arange(len(points))
-        return q[rows, best], cand[rows, best]
+        face = np.where(np.isfinite(d2[rows, best]), cand[rows, best], -1)
+        return q[rows, best], face
 
 
 def space_colonisation(
@@ -144,6 +158,10 @@ def space_colonisation(
     gamma: float = 3.0,
     tip_radius: float | None = None,
     seed: int = 0,
+    refill: int = 0,
+    birth: float | None = None,
+    min_branch: float = 0.0,
+    same_piece: bool = False,
 ) -> VeinGraph:
     """Grow veins from mesh vertices ``seeds`` towards ``points`` attraction points.
 
@@ -152,7 +170,15 @@ def space_colonisation(
 
     Args:
         seeds: vertex indices where veins start (the roots).
-        density: optional ``(V,)`` acceptance probability of attraction points (§3.4.4).
+        density: optional ``(V,)`` acceptance probability of attraction points (§3.4.4), for
+            the initial and the refilled points.
+        refill: candidate points drawn every iteration (0: none); a candidate is kept if it
+            is farther than ``birth`` (default ``kill``) from every node and every point.
+        min_branch: terminal branches (from a tip to the first branching node or root)
+            shorter than this are removed after growth (0: keep all).
+        same_piece: keep every vein on the connected piece of the mesh its root is on (for
+            flowers of separate organs that lie close together or overlap); a step that would
+            leave the piece is not taken.
 
     Raises:
         MorphogenError: no seeds, a seed out of range, no points, or lengths out of order
@@ -178,6 +204,12 @@ def space_colonisation(
                              f"{step:g}, kill {kill:g}, influence {influence:g}")
     if not (gamma > 0 and tip_radius > 0):
         raise MorphogenError(f"gamma and tip_radius must be positive, got {gamma}, {tip_radius}")
+    birth = kill if birth is None else float(birth)
+    if not (isinstance(refill, int | np.integer) and refill >= 0):
+        raise MorphogenError(f"vein refill must be a non-negative integer, got {refill}")
+    if not (np.isfinite(birth) and birth > 0 and np.isfinite(min_branch) and min_branch >= 0):
+        raise MorphogenError(f"vein birth must be positive and min_branch non-negative, got "
+                             f"{birth:g}, {min_branch:g}")
 
     project = SurfaceProjector(mesh)
     normals = np.cross(*(mesh.vertices[mesh.faces[:, i]] - mesh.vertices[mesh.faces[:, 0]]
@@ -185,11 +217,17 @@ def space_colonisation(
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
     attract = surface_points(mesh, points, density=density, seed=seed)
     nodes, face = project(mesh.vertices[seeds])
+    piece = _face_pieces(mesh) if same_piece else None
     nodes, face = [nodes], [face]
     parent = [np.full(len(seeds), -1)]
     all_nodes = nodes[0]
     attract = attract[cKDTree(all_nodes).query(attract)[0] > kill]
-    for _ in range(iterations):
+    pool = surface_points(mesh, refill * iterations, density=density, seed=seed + 1) \
+        if refill else np.zeros((0, 3))
+    for it in range(iterations):
+        if refill:
+            attract = _refill(attract, pool[it * refill:(it + 1) * refill], all_nodes,
+                              birth, kill)
         if len(attract) == 0:
             break
         tree = cKDTree(all_nodes)
@@ -206,9 +244,13 @@ def space_colonisation(
         length = np.linalg.norm(direction, axis=1)
         live = length > 1e-9
         growing, direction = growing[live], direction[live] / length[live, None]
-        new, new_face = project(all_nodes[growing] + step * direction)
+        if piece is None:
+            new, new_face = project(all_nodes[growing] + step * direction)
+        else:
+            label = piece[np.concatenate(face)[growing]]
+            new, new_face = project(all_nodes[growing] + step * direction, label, piece)
         # a node whose points pull it back onto existing veins stops (no duplicate nodes)
-        keep = tree.query(new)[0] > 0.25 * step
+        keep = (tree.query(new)[0] > 0.25 * step) & (new_face >= 0)
         growing, new, new_face = growing[keep], new[keep], new_face[keep]
         if len(new) == 0:
             break
@@ -217,10 +259,96 @@ def space_colonisation(
         parent.append(growing)
         all_nodes = np.concatenate([all_nodes, new])
         attract = attract[cKDTree(new).query(attract)[0] > kill]
-    parent_arr = np.concatenate(parent)
+    parent_arr, face_arr = np.concatenate(parent), np.concatenate(face)
+    while min_branch > 0:  # until no short twig is left (a fork of two twigs is one)
+        keep = ~_short_branches(all_nodes, parent_arr, min_branch)
+        if keep.all():
+            break
+        index = np.cumsum(keep) - 1
+        parent_arr = np.where(parent_arr[keep] >= 0, index[parent_arr[keep]], -1)
+        all_nodes, face_arr = all_nodes[keep], face_arr[keep]
     order, thickness = _pipe_model(parent_arr, gamma, tip_radius)
-    return VeinGraph(nodes=all_nodes, parent=parent_arr, face=np.concatenate(face),
+    return VeinGraph(nodes=all_nodes, parent=parent_arr, face=face_arr,
                      order=order, thickness=thickness, seeds=seeds, remaining=attract)
+
+
+def _face_pieces(mesh: Mesh) -> np.ndarray:
+    """Connected-piece label of every face (faces sharing a vertex are connected)."""
+    from scipy.sparse.csgraph import connected_components
+
+    f = mesh.faces
+    n = mesh.n_vertices
+    rows = np.concatenate([f[:, 0], f[:, 1]])
+    cols = np.concatenate([f[:, 1], f[:, 2]])
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    return label[f[:, 0]]
+
+
+def _refill(attract: np.ndarray, candidates: np.ndarray, nodes: np.ndarray,
+            birth: float, kill: float) -> np.ndarray:
+    """``attract`` plus the candidates farther than ``birth`` (and ``kill``) from every node,
+    and than ``birth`` from every point and every earlier accepted candidate."""
+    ok = cKDTree(nodes).query(candidates)[0] > max(birth, kill)
+    if len(attract):
+        ok &= cKDTree(attract).query(candidates)[0] > birth
+    candidates = candidates[ok]
+    if len(candidates) > 1:  # among themselves: the earlier of a close pair wins
+        drop = {j for i, j in cKDTree(candidates).query_pairs(birth)}
+        candidates = candidates[np.setdiff1d(np.arange(len(candidates)), list(drop))]
+    return np.concatenate([attract, candidates])
+
+
+def _terminal_branches(parent: np.ndarray) -> list[np.ndarray]:
+    """Each tip's terminal branch: the nodes from the tip up to, not including, the first
+    node with two or more children (or a root, included if the whole tree is one chain)."""
+    children = np.bincount(parent[parent >= 0], minlength=len(parent))
+    out = []
+    for tip in np.flatnonzero(children == 0):
+        path = [tip]
+        v = parent[tip]
+        while v >= 0 and children[v] == 1 and parent[v] >= 0:
+            path.append(v)
+            v = parent[v]
+        out.append(np.asarray(path))
+    return out
+
+
+def _short_branches(nodes: np.ndarray, parent: np.ndarray, min_length: float) -> np.ndarray:
+    """Mask of the nodes of terminal branches shorter than ``min_length`` (measured from the
+    branching node to the tip); roots are never removed."""
+    drop = np.zeros(len(parent), bool)
+    for path in _terminal_branches(parent):
+        if parent[path[-1]] < 0:
+            continue  # a tree that never branched
+        ends = np.append(path, parent[path[-1]])
+        length = np.linalg.norm(np.diff(nodes[ends], axis=0), axis=1).sum()
+        if length < min_length:
+            drop[path] = True
+    return drop
+
+
+def vein_statistics(graph: VeinGraph, area: float, stub: int = 2) -> dict[str, float]:
+    """Measures of a vein forest on a surface of ``area``: ``nodes``; ``tips``; ``stub_share``,
+    the share of tips whose terminal branch has at most ``stub`` nodes; ``strahler``, the
+    highest Strahler order; ``order_length``, the vein length of each order from 1 up;
+    ``length`` in all; and ``spacing = area / length``, the
+    mean distance between neighbouring veins (for parallel veins ``s`` apart the length per
+    unit area is ``1/s``)."""
+    parent = graph.parent
+    edges = graph.edges
+    branches = _terminal_branches(parent)
+    tips = len(branches)
+    stubs = sum(len(b) <= stub for b in branches)
+    top = int(graph.order.max()) if len(graph.order) else 0
+    seg = np.linalg.norm(graph.nodes[edges[:, 1]] - graph.nodes[edges[:, 0]], axis=1) \
+        if len(edges) else np.zeros(0)
+    per_order = [float(seg[graph.order[edges[:, 1]] == k].sum()) for k in range(1, top + 1)]
+    length = float(seg.sum())
+    return {"nodes": int(len(parent)), "tips": tips, "stubs": int(stubs),
+            "stub_share": stubs / tips if tips else 0.0, "strahler": top,
+            "order_length": per_order, "length": length,
+            "spacing": area / length if length else float("inf")}
 
 
 def _pipe_model(parent: np.ndarray, gamma: float,
