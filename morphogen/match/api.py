@@ -1,0 +1,164 @@
+"""``match(picture) -> MatchResult``: from a picture to a model that grows a pattern like it.
+
+Skaggs (seed 000, §6.4) wished for "an automatic fitness function which could be initialized to
+target patterns which look similar to a photograph or drawing"; Richard et al. (seed 001) and
+Pearson mapped Gray-Scott's ``(F, k)`` by eye, and Ringham et al. (§6) spent hours to days per
+flower model. This puts the library's pieces together: the picture is described with the
+simulator's own descriptors (:mod:`morphogen.match.signature`), every candidate model's box is
+searched as batched populations (:mod:`morphogen.match.search`), and the best candidates come
+back at the picture's scale, each a ``run.json`` that ``morphogen simulate --config`` replays
+(:mod:`morphogen.match.answer`).
+
+Files (with ``out``): ``run.json`` (the best candidate), ``candidate_K.json`` and
+``candidate_K.png`` (each candidate's replay), ``sheet.png`` (target | best | next best),
+``report.txt`` and ``match.json``. They are written into a staging directory renamed into place
+at the end, so a failed or interrupted match leaves no half-written answer; the populations
+already scored are kept in a hidden work directory beside ``out`` (``.NAME.match-work``), from
+which the same command resumes, and which is removed once the answer is written.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from morphogen.errors import MorphogenError
+from morphogen.match.answer import Candidate, answer, report_text, write_answer
+from morphogen.match.boxes import DEFAULT_MODELS, resolve_boxes
+from morphogen.match.picture import Picture, load_picture
+from morphogen.match.search import Budget, Journal, Samples, run_search
+from morphogen.match.signature import Signature, signature
+
+POLARITIES = ("auto", "as-is", "inverted")
+"""``auto``: a species' high may be the picture's light or dark; the others fix it."""
+
+
+@dataclass
+class MatchResult:
+    """The outcome of a match.
+
+    Attributes:
+        candidates: the best candidates, best first.
+        target: the picture's signature (wavelength in the picture's work pixels; times
+            ``scale`` for original pixels).
+        samples: every scored search sample.
+        directory: where the answer was written (``None`` without ``out``).
+        seconds: wall time.
+    """
+
+    candidates: list[Candidate]
+    target: Signature
+    scale: float
+    samples: Samples
+    directory: Path | None
+    seconds: float
+
+    @property
+    def best(self) -> Candidate:
+        return self.candidates[0]
+
+
+def describe_picture(picture: Picture) -> Signature:
+    """The signature of a picture (not periodic: mirrored before it is described)."""
+    return signature(picture.field, periodic=False)
+
+
+def match(
+    image: str | Path | np.ndarray,
+    *,
+    models: Sequence[str] = DEFAULT_MODELS,
+    genes: Sequence[str] = (),
+    budget: int = 96,
+    minutes: float | None = None,
+    channel: str = "auto",
+    crop: tuple[int, int, int, int] | None = None,
+    polarity: str = "auto",
+    seed: int = 0,
+    top: int = 3,
+    out: str | Path | None = None,
+    progress: bool = False,
+    log: Callable[[str], Any] | None = None,
+) -> MatchResult:
+    """Find the models, parameters and scale that grow a pattern like ``image``.
+
+    Args:
+        image: a picture file, or an array ``(H, W)`` / ``(H, W, 3)`` in ``[0, 1]``.
+        models: library names or model files (a model without a box needs ``genes``).
+        genes: ``NAME=LOW:HIGH`` ranges replacing the models' boxes.
+        budget: simulations of the search (the answer's verification runs come on top).
+        minutes: stop searching after this wall time (then answer with what was found).
+        channel, crop: see :mod:`morphogen.match.picture`.
+        polarity: one of :data:`POLARITIES`.
+        top: number of candidates in the answer.
+        out: answer directory (resumable; see the module docstring); ``None`` writes nothing.
+        progress: show a progress bar with ETA on standard error.
+
+    Raises:
+        MorphogenError: bad picture, model, gene, option or output directory (nothing written).
+    """
+    from morphogen.util.io import check_run_dir, staged_dir
+    from morphogen.util.progress import ProgressBar
+
+    started = time.perf_counter()
+    if int(budget) < 8:
+        raise MorphogenError(f"the budget must be at least 8 simulations, got {budget}")
+    if minutes is not None and not minutes > 0:
+        raise MorphogenError(f"minutes must be positive, got {minutes}")
+    if polarity not in POLARITIES:
+        raise MorphogenError(f"polarity must be one of {', '.join(POLARITIES)}, got {polarity!r}")
+    if not 1 <= int(top) <= 6:
+        raise MorphogenError(f"top must be between 1 and 6, got {top}")
+    if out is not None:
+        check_run_dir(out)
+    picture = load_picture(image, channel=channel, crop=crop)
+    boxes = resolve_boxes(list(models), list(genes))
+    target = describe_picture(picture)
+    identity = {"picture": hashlib.sha256(picture.field.tobytes()).hexdigest(),
+                "models": [b.model for b in boxes],
+                "genes": [[g.to_dict() for g in b.genes] for b in boxes],
+                "budget": int(budget), "polarity": polarity, "seed": int(seed)}
+    work = _work_dir(out)
+    journal = Journal(work, identity)
+    say = log or (lambda _line: None)
+    say(f"target: {target.family}, wavelength {target.wavelength * picture.scale:.1f} px; "
+        f"searching {', '.join(b.model for b in boxes)} ({budget} simulations)")
+    bar = ProgressBar(int(budget) + int(top) + 1, enabled=progress, unit="sim", desc="match")
+    try:
+        samples = run_search(boxes, target, picture.field, budget=Budget(int(budget), minutes),
+                             journal=journal, polarity=polarity, seed=int(seed),
+                             progress=bar.update)
+        if not any(d < 5.0 for d in samples.distance):
+            raise MorphogenError("no candidate formed a pattern; raise --budget or name other "
+                                 "--models")
+        candidates = answer(samples, boxes, target, picture.field.shape, picture.scale,
+                            top=int(top), seed=int(seed), journal=journal, progress=bar.update)
+    finally:
+        bar.close()
+    seconds = time.perf_counter() - started
+    result = MatchResult(candidates, target, picture.scale, samples, None, seconds)
+    if out is not None:
+        summary = {"picture": picture.source, "target": target.to_dict(),
+                   "scale": picture.scale, "settings": identity, "seconds": round(seconds, 1),
+                   "simulations": len(samples),
+                   "candidates": [c.summary() for c in candidates]}
+        text = report_text(picture.source, target, picture.scale, candidates, samples, seconds)
+        with staged_dir(out) as stage:
+            write_answer(stage, picture.rgb, target, picture.scale, candidates, summary, text)
+        shutil.rmtree(work, ignore_errors=True)
+        result.directory = Path(out)
+    return result
+
+
+def _work_dir(out: str | Path | None) -> Path | None:
+    """The hidden journal directory beside ``out`` (``None`` without ``out``)."""
+    if out is None:
+        return None
+    p = Path(out).absolute()
+    return p.parent / f".{p.name}.match-work"

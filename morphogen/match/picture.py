@@ -1,0 +1,183 @@
+"""A picture as one grey field: read, checked, cropped, reduced to a channel or colour axis.
+
+Skaggs (seed 000, §6.4) asks for a fitness "initialized to target patterns which look similar to
+a photograph or drawing"; a photograph is not a simulation, so before it is described
+(:mod:`morphogen.match.signature`) it is reduced to what a simulated species is: one scalar
+field. Which scalar is the user's choice (``channel``):
+
+- ``auto`` (default): the first principal component of the RGB pixels, signed so that it grows
+  with luminance. A recoloured pattern (any colour map whose colours lie near a line in RGB)
+  comes back to its grey levels up to an affine change, which the descriptors ignore.
+- ``luma``: ``0.299 R + 0.587 G + 0.114 B``; ``red``, ``green``, ``blue``: one channel;
+  ``saturation``: ``max − min`` of R, G, B (a coloured motif on a grey ground);
+- ``R,G,B``: the projection on a colour axis, e.g. ``1,-1,0`` (red against green).
+
+Bad input is one :class:`~morphogen.errors.MorphogenError` line: a file that is not an image, an
+image whose header claims more than :data:`MAX_PIXELS` pixels (a decompression bomb is refused
+before it is decoded), a crop outside the image, a picture too small or blank in the chosen
+channel. A picture larger than :data:`WORK_SIDE` is reduced by area averaging (its scale is kept
+in :attr:`Picture.scale`, so wavelengths are still quoted in the original pixels).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from morphogen.errors import MorphogenError
+
+CHANNELS = ("auto", "luma", "red", "green", "blue", "saturation")
+"""Named channels; a colour axis ``R,G,B`` is accepted too."""
+
+MAX_PIXELS = 40_000_000
+"""Largest picture accepted (width x height from the header, checked before decoding)."""
+
+MIN_SIDE = 24
+"""Smallest picture side (after the crop), in pixels."""
+
+WORK_SIDE = 384
+"""Pictures with a longer side are reduced to it (area averaging) before they are described."""
+
+BLANK = 1e-3
+"""A field whose standard deviation is below this (values in [0, 1]) is blank."""
+
+
+@dataclass(frozen=True)
+class Picture:
+    """A picture reduced to one field.
+
+    Attributes:
+        field: grey levels, shape ``(H, W)`` float32 in ``[0, 1]`` (reduced to at most
+            :data:`WORK_SIDE` per side).
+        rgb: the cropped picture as shown on the answer sheet, ``(H, W, 3)`` float32.
+        scale: original pixels per pixel of ``field`` (1 unless the picture was reduced).
+        source: the file name (or ``"array"``).
+    """
+
+    field: np.ndarray
+    rgb: np.ndarray
+    scale: float
+    source: str
+
+
+def parse_crop(text: str | None) -> tuple[int, int, int, int] | None:
+    """``"X,Y,W,H"`` (pixels, from the top left corner) -> a tuple, or ``None``."""
+    if text is None:
+        return None
+    parts = text.replace("x", ",").split(",")
+    try:
+        values = tuple(int(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 4 or values[0] < 0 or values[1] < 0 or values[2] < 1 or values[3] < 1:
+        raise MorphogenError(f"bad crop {text!r}: write X,Y,W,H in pixels, e.g. 10,20,200,200")
+    return values  # type: ignore[return-value]
+
+
+def read_rgb(path: str | Path) -> np.ndarray:
+    """An image file as float RGB ``(H, W, 3)`` in ``[0, 1]`` (alpha composited on white)."""
+    from PIL import Image
+
+    path = Path(path)
+    if not path.is_file():
+        raise MorphogenError(f"picture {path} not found")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            with Image.open(path) as img:
+                w, h = img.size
+                if w * h > MAX_PIXELS:
+                    raise MorphogenError(
+                        f"picture {path} claims {w}x{h} pixels, over the limit of "
+                        f"{MAX_PIXELS // 1_000_000} million; crop or reduce it first")
+                img.load()
+                rgba = np.asarray(img.convert("RGBA"), np.float32) / 255.0
+    except MorphogenError:
+        raise
+    except (Image.DecompressionBombError, Image.DecompressionBombWarning):
+        raise MorphogenError(f"picture {path} is too large to decode safely") from None
+    except Exception:  # any decoder failure is the same user error: not a readable picture
+        raise MorphogenError(f"{path} is not a picture that can be read (PNG, JPEG, ...)") from None
+    alpha = rgba[..., 3:]
+    return rgba[..., :3] * alpha + (1.0 - alpha)
+
+
+def to_field(rgb: np.ndarray, channel: str = "auto") -> np.ndarray:
+    """Reduce RGB ``(H, W, 3)`` to one field ``(H, W)`` (see the module docstring)."""
+    flat = rgb.reshape(-1, 3).astype(np.float64)
+    luma = flat @ np.array([0.299, 0.587, 0.114])
+    if channel == "auto":
+        centred = flat - flat.mean(axis=0)
+        cov = centred.T @ centred / max(len(flat), 1)
+        axis = np.linalg.eigh(cov)[1][:, -1]
+        value = centred @ axis
+        if np.dot(value, luma - luma.mean()) < 0:
+            value = -value
+    elif channel == "luma":
+        value = luma
+    elif channel in ("red", "green", "blue"):
+        value = flat[:, ("red", "green", "blue").index(channel)]
+    elif channel == "saturation":
+        value = flat.max(axis=1) - flat.min(axis=1)
+    else:
+        try:
+            axis = np.array([float(v) for v in channel.split(",")])
+        except ValueError:
+            axis = np.zeros(0)
+        if axis.shape != (3,) or not np.any(axis):
+            raise MorphogenError(
+                f"unknown channel {channel!r}; use one of {', '.join(CHANNELS)} or a colour "
+                "axis R,G,B such as 1,-1,0")
+        value = flat @ axis
+    value = value.reshape(rgb.shape[:2])
+    lo, hi = float(value.min()), float(value.max())
+    return ((value - lo) / max(hi - lo, 1e-12)).astype(np.float32)
+
+
+def _reduce(a: np.ndarray, factor: float) -> np.ndarray:
+    """Area-average ``a`` (``(H, W)`` or ``(H, W, 3)``) by ``factor`` >= 1."""
+    from PIL import Image
+
+    h, w = a.shape[:2]
+    size = (max(1, round(w / factor)), max(1, round(h / factor)))
+    chans = a[..., None] if a.ndim == 2 else a
+    out = [np.asarray(Image.fromarray(chans[..., c].astype(np.float32), mode="F")
+                      .resize(size, Image.BOX)) for c in range(chans.shape[-1])]
+    res = np.stack(out, axis=-1)
+    return res[..., 0] if a.ndim == 2 else res
+
+
+def load_picture(image: str | Path | np.ndarray, *, channel: str = "auto",
+                 crop: tuple[int, int, int, int] | None = None) -> Picture:
+    """Read and reduce a picture (a file, or an array ``(H, W)`` / ``(H, W, 3)`` in [0, 1])."""
+    if isinstance(image, np.ndarray):
+        rgb = np.asarray(image, np.float32)
+        if rgb.ndim == 2:
+            rgb = np.repeat(rgb[..., None], 3, axis=-1)
+        if rgb.ndim != 3 or rgb.shape[-1] not in (3, 4) or not np.all(np.isfinite(rgb)):
+            raise MorphogenError(f"a picture array must be (H, W) or (H, W, 3), got {rgb.shape}")
+        rgb, source = rgb[..., :3], "array"
+    else:
+        rgb, source = read_rgb(image), str(image)
+    if crop is not None:
+        x, y, w, h = crop
+        if x + w > rgb.shape[1] or y + h > rgb.shape[0]:
+            raise MorphogenError(f"crop {x},{y},{w},{h} lies outside the {rgb.shape[1]}x"
+                                 f"{rgb.shape[0]} picture")
+        rgb = rgb[y:y + h, x:x + w]
+    if min(rgb.shape[:2]) < MIN_SIDE:
+        raise MorphogenError(f"the picture is {rgb.shape[1]}x{rgb.shape[0]} pixels; use at least "
+                             f"{MIN_SIDE}x{MIN_SIDE}")
+    field = to_field(rgb, channel)
+    if float(np.std(field)) < BLANK or float(np.ptp(rgb)) < 2.0 / 255.0:
+        raise MorphogenError(f"the picture is blank in channel {channel!r}: no pattern to match")
+    factor = max(rgb.shape[:2]) / WORK_SIDE
+    scale = 1.0
+    if factor > 1.0:
+        field, rgb, scale = _reduce(field, factor), _reduce(rgb, factor), factor
+    return Picture(field=np.clip(field, 0.0, 1.0).astype(np.float32),
+                   rgb=np.clip(rgb, 0.0, 1.0).astype(np.float32), scale=float(scale),
+                   source=source)

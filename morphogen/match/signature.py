@@ -1,0 +1,184 @@
+"""A pattern's signature and the distance between two: what ``match`` compares.
+
+The signature of a field is built from the simulator's own descriptors
+(:func:`morphogen.patterns.descriptors.describe` and ``radial_spectrum``; families by
+:func:`morphogen.patterns.classify.classify`), after a normalisation applied alike
+to a picture and to a simulated species, so that what a picture does not fix does not count:
+
+1. **contrast and colour**: values are clipped to their 1st and 99th percentiles and rescaled to
+   ``[0, 1]`` (an affine change of the grey levels, or a few saturated pixels, change nothing);
+2. **resolution**: the wavelength ``λ`` is the power-weighted mean wavenumber of the radially
+   averaged power spectrum over the rings ``[r*/√2, r*√2]`` around its peak ``r*``
+   (``λ = N / r̄``, finer than the peak ring alone); every other part of the signature is in
+   units of ``λ`` (scale-free), and ``λ`` itself is matched by fitting the grid spacing;
+3. **blur, noise, JPEG**: the field is smoothed by a Gaussian of width ``λ / 8`` before it is
+   thresholded (Euler characteristic) or its gradients are taken, which removes pixel noise and
+   leaves the pattern; the levels are then mapped piecewise linearly so that the descriptors'
+   mid-level threshold falls at Otsu's threshold (the level that best splits the values in two),
+   which a monotone change of the grey levels (a gamma) barely moves;
+4. **borders**: a picture is not periodic, so it is mirrored into a ``2H x 2W`` torus before the
+   spectrum and the topology are measured (the descriptors assume a torus);
+5. **rotation**: every part is rotation invariant (ring averages, structure-tensor coherence,
+   Euler characteristic, histograms); the global ``orientation`` and ``order`` are not used.
+
+A signature holds the family (``spots``, ``stripes``, ``holes``, ``mixed``, or ``uniform`` /
+``blown-up``), the ``spot_index`` (Euler characteristic per wavelength cell), the local
+``coherence``, the share ``covered`` above mid-level, the spectrum profile ``log P(x r̄)/P(r̄)``
+at 16 ratios ``x`` in ``[0.35, 2.8]`` and a 16-bin intensity histogram. :func:`distance` weighs
+them (:data:`WEIGHTS`); a family mismatch alone costs 1, so families come first.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from morphogen.patterns.classify import classify
+
+RATIOS = np.geomspace(0.35, 2.8, 16)
+"""Wavenumber ratios ``k / k̄`` at which the spectrum profile is read."""
+
+HIST_BINS = 16
+
+WEIGHTS = {"family": 1.0, "spot_index": 0.6, "coherence": 1.0, "covered": 1.0,
+           "histogram": 2.0, "profile": 0.15}
+"""Weights of the distance's terms (each term is in about ``[0, 1]``)."""
+
+SETTLED = ("spots", "stripes", "holes", "mixed")
+"""The families a still picture can show (motion is not visible in one picture)."""
+
+
+@dataclass(frozen=True)
+class Signature:
+    """What a pattern looks like, scale-free except ``wavelength`` (pixels or cells)."""
+
+    family: str
+    wavelength: float
+    spot_index: float
+    coherence: float
+    covered: float
+    profile: np.ndarray
+    histogram: np.ndarray
+
+    def to_dict(self) -> dict:
+        return {"family": self.family, "wavelength": round(self.wavelength, 3),
+                "spot_index": round(self.spot_index, 3), "coherence": round(self.coherence, 3),
+                "covered": round(self.covered, 3)}
+
+
+def normalise(f: np.ndarray) -> np.ndarray:
+    """Clip ``f`` to its 1st-99th percentiles and rescale to ``[0, 1]`` (float32)."""
+    f = np.where(np.isfinite(f), f, 0.0).astype(np.float64)
+    lo, hi = np.percentile(f, [1.0, 99.0])
+    if hi - lo <= 1e-9 * max(1.0, abs(hi)):
+        lo, hi = float(f.min()), float(f.max())
+    return np.clip((f - lo) / max(hi - lo, 1e-12), 0.0, 1.0).astype(np.float32)
+
+
+def spectrum(f: np.ndarray) -> np.ndarray:
+    """Radially averaged power spectrum ``P(r)`` of a periodic field (the descriptors' own)."""
+    from morphogen.patterns.descriptors import radial_spectrum
+
+    return np.asarray(_jit(radial_spectrum)(np.asarray(f, np.float32)), np.float64)
+
+
+def wavelength(power: np.ndarray, n: int, min_ring: int = 2) -> float:
+    """``N / r̄``: ``r̄`` the power-weighted mean ring over ``[r*/√2, r*√2]`` (module doc)."""
+    p = np.array(power, np.float64)
+    p[:min_ring] = 0.0
+    if not np.any(p > 0):
+        return float(n)
+    peak = int(np.argmax(p))
+    r = np.arange(len(p))
+    band = (r >= peak / np.sqrt(2.0)) & (r <= peak * np.sqrt(2.0)) & (r >= min_ring)
+    mean = float(np.sum(r[band] * p[band]) / max(np.sum(p[band]), 1e-30))
+    return float(n / max(mean, 1e-9))
+
+
+def otsu(f: np.ndarray, bins: int = 64) -> float:
+    """Otsu's threshold of values in ``[0, 1]``: the level that best splits them in two."""
+    hist, edges = np.histogram(f, bins=bins, range=(0.0, 1.0))
+    p = hist / max(hist.sum(), 1)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    w0 = np.cumsum(p)
+    m0 = np.cumsum(p * centres)
+    between = (m0[-1] * w0 - m0) ** 2 / np.maximum(w0 * (1.0 - w0), 1e-12)
+    return float(edges[1:][int(np.argmax(between[:-1]))])
+
+
+def split_at(f: np.ndarray, t: float) -> np.ndarray:
+    """Map ``[0, t]`` to ``[0, 1/2]`` and ``[t, 1]`` to ``[1/2, 1]`` (piecewise linear), so that
+    the descriptors' mid-level threshold falls at ``t``."""
+    t = float(np.clip(t, 0.05, 0.95))
+    return np.where(f < t, 0.5 * f / t, 0.5 + 0.5 * (f - t) / (1.0 - t)).astype(np.float32)
+
+
+def mirror(f: np.ndarray) -> np.ndarray:
+    """A non-periodic ``(H, W)`` field mirrored into a seamless ``(2H, 2W)`` torus."""
+    top = np.concatenate([f, f[:, ::-1]], axis=1)
+    return np.concatenate([top, top[::-1]], axis=0)
+
+
+def signature(f: np.ndarray, *, periodic: bool, invert: bool = False) -> Signature:
+    """The signature of one field ``(H, W)`` (a simulated species: ``periodic=True``; a
+    picture: ``False``); ``invert`` reads ``1 - f`` (the other polarity)."""
+    from scipy.ndimage import gaussian_filter
+
+    g = normalise(f)
+    if invert:
+        g = 1.0 - g
+    torus = g if periodic else mirror(g)
+    n = min(torus.shape)
+    lam = wavelength(spectrum(torus), n, min_ring=2 if periodic else 3)
+    smooth = normalise(gaussian_filter(torus, lam / 8.0, mode="wrap"))
+    smooth = split_at(smooth, otsu(smooth))
+    d = {k: float(v) for k, v in _describe(smooth).items()}
+    d.update(activity=0.0, pulse=0.0, recurrence=1.0, persistence=0.0)
+    family = str(classify({k: np.array([v]) for k, v in d.items()})[0])
+    power = spectrum(smooth)
+    rings = np.arange(len(power))
+    r_mean = n / lam
+    prof = np.interp(RATIOS * r_mean, rings, power, right=0.0)
+    top = max(float(np.interp(r_mean, rings, power)), 1e-30)
+    profile = np.log10(np.maximum(prof / top, 1e-4))
+    hist = np.histogram(smooth, bins=HIST_BINS, range=(0.0, 1.0))[0].astype(np.float64)
+    cells = smooth.size / lam**2
+    chi = d["euler"]
+    return Signature(family=family, wavelength=lam,
+                     spot_index=float(np.clip(chi / max(cells, 1e-9), -1.5, 1.5)),
+                     coherence=d["coherence"], covered=d["covered"], profile=profile,
+                     histogram=hist / max(hist.sum(), 1.0))
+
+
+def distance(a: Signature, b: Signature) -> float:
+    """Weighted distance of two signatures (wavelength excluded: the grid spacing fits it).
+
+    ``family`` is 1 when the families differ, ``histogram`` the earth mover's distance of the
+    intensity histograms (:func:`morphogen.search.fitness.wasserstein_1d`'s definition),
+    ``profile`` the mean absolute difference of the log spectrum profiles (in decades).
+    """
+    terms = {
+        "family": float(a.family != b.family),
+        "spot_index": abs(a.spot_index - b.spot_index),
+        "coherence": abs(a.coherence - b.coherence),
+        "covered": abs(a.covered - b.covered),
+        "histogram": float(np.sum(np.abs(np.cumsum(a.histogram) - np.cumsum(b.histogram)))
+                           / HIST_BINS),
+        "profile": float(np.mean(np.abs(a.profile - b.profile))),
+    }
+    return float(sum(WEIGHTS[k] * v for k, v in terms.items()))
+
+
+@lru_cache(maxsize=8)
+def _jit(fn):  # noqa: ANN001, ANN202 (a jitted descriptor function, one per function)
+    import jax
+
+    return jax.jit(fn)
+
+
+def _describe(f: np.ndarray) -> dict:
+    from morphogen.patterns.descriptors import describe
+
+    return _jit(describe)(np.asarray(f, np.float32))
