@@ -57,6 +57,7 @@ def _write(tmp_path, text=PIPELINE):
     return path
 
 
+@pytest.mark.slow
 def test_stages_feed_each_other_and_match_a_direct_run(tmp_path):
     out = tmp_path / "out"
     mesh = run_pipeline(_write(tmp_path), out)
@@ -104,6 +105,7 @@ def test_resume_reuses_finished_stages(tmp_path):
      "nope"),
     ("[mesh]\nshape = 'cube'\n[[stage]]\nkind = 'fields'\nfields = { a = '1' }\n", "shape"),
     ("[mesh\n", "pipeline file"),
+    ("seed = " + "[" * 5000 + "]" * 5000 + "\n", "nested more than"),
 ])
 def test_bad_pipelines_are_rejected(tmp_path, text, message):
     with pytest.raises(MorphogenError, match=message):

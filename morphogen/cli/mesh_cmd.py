@@ -28,12 +28,14 @@ def _setting(text: str) -> tuple[str, object]:
     """``NAME=VALUE`` with VALUE read as a TOML value (number, list, string, boolean)."""
     import tomllib
 
+    from morphogen.models.text import toml_text
+
     name, sep, value = text.partition("=")
     name = name.strip()
     if not sep or not name.isidentifier():
         raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
     try:
-        return name, tomllib.loads(f"v = {value.strip()}")["v"]
+        return name, toml_text.loads(f"v = {value.strip()}")["v"]
     except tomllib.TOMLDecodeError:
         return name, value.strip()
 

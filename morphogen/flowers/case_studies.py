@@ -15,6 +15,8 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from morphogen.models.text import toml_text
+
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 """The repository's ``examples/`` directory."""
 
@@ -38,7 +40,7 @@ class Flower:
 
 def _is_pipeline(path: Path) -> bool:
     try:
-        data = tomllib.loads(path.read_text())
+        data = toml_text.loads(path.read_text())
     except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError):
         return True  # let the pipeline loader report it as that flower's error
     return isinstance(data.get("mesh"), dict) and "stage" in data

@@ -68,6 +68,7 @@ import numpy as np
 
 from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
+from morphogen.models.text import toml_text
 from morphogen.util.io import ensure_writable_dir, write_json, write_npz
 
 KINDS = ("positional", "fields", "points", "veins", "simulate")
@@ -91,7 +92,7 @@ def load_pipeline(path: str | Path) -> dict[str, Any]:
     if not p.is_file():
         raise MorphogenError(f"pipeline file {p} does not exist")
     try:
-        data = tomllib.loads(p.read_text())
+        data = toml_text.loads(p.read_text())
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise MorphogenError(f"pipeline file {p}: {exc}") from None
     extra = set(data) - {"mesh", "stage", "seed", "cmap", "view"}
