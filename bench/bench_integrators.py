@@ -35,11 +35,14 @@ REFERENCE_DT = 0.0025
 
 
 def _candidates(limits: dict[str, float]) -> dict[str, dict]:
-    """Each fixed-step scheme at its reported limit, IMEX also at half of it, and adaptive."""
+    """Each fixed-step scheme at its reported limit, IMEX also at half of it, and the two
+    error-controlled schemes."""
     out = {f"{scheme} dt={dt:.4g} (its limit)": {"scheme": scheme, "dt": dt}
            for scheme, dt in limits.items()}
     out[f"imex dt={limits['imex'] / 2:.3g}"] = {"scheme": "imex", "dt": limits["imex"] / 2}
     out["adaptive rtol=1e-3"] = {"scheme": "adaptive", "dt": 0.005, "rtol": 1e-3, "atol": 1e-6}
+    out["etdrk4-adaptive rtol=1e-4"] = {"scheme": "etdrk4-adaptive", "dt": 0.1, "rtol": 1e-4,
+                                        "atol": 1e-6}
     return out
 
 

@@ -312,7 +312,151 @@ def run() -> dict:
             **{name: _run_problem(name, problem) for name, problem in PROBLEMS.items()}}
 
 
+
+
+CURVES_DTS = (0.1, 0.2, 0.4, 0.8)
+CURVES_RTOLS = (1e-3, 1e-4, 1e-5)
+
+
+def _cpu_rounds(runs: dict[str, Run], rounds: dict[str, int]) -> tuple[dict[str, list[float]],
+                                                                      tuple, tuple]:
+    """CPU seconds (``time.process_time``) of each run, interleaved round by round; a run
+    with fewer ``rounds`` sits out the later ones. The load averages before and after."""
+    import os
+
+    load_before = os.getloadavg()
+    times: dict[str, list[float]] = {k: [] for k in runs}
+    for r in range(max(rounds.values())):
+        for k, fn in runs.items():
+            if r < rounds[k]:
+                c = time.process_time()
+                fn()
+                times[k].append(time.process_time() - c)
+    return times, load_before, os.getloadavg()
+
+
+def curves() -> dict:
+    """Schnakenberg (Du = 1, Dv = 40, a = 0.1, b = 0.9), 256², T = 30: every scheme and
+    Exponax's ETDRK4 over a range of steps (and tolerances), CPU seconds per run (XLA on one
+    thread: run with ``XLA_FLAGS=--xla_cpu_multi_thread_eigen=false
+    intra_op_parallelism_threads=1``), error against float64 ``etdrk4`` at ``dt = 0.01`` on
+    the same discretisation (5-point rows against the 5-point one, spectral rows against the
+    spectral one)."""
+    problem = PROBLEMS["schnakenberg"]
+    model = problem["model"]()
+    p = {k: float(v) for k, v in model.parameters().items()}
+    grids = {"5-point": Grid((SIZE, SIZE)), "spectral": Grid((SIZE, SIZE), stencil="spectral")}
+    u0 = make_initial(model.init, model, grids["5-point"], p, seed=0)
+    T = problem["T"]
+    refs = {}
+    for group, grid in grids.items():
+        with jax.enable_x64(True):
+            refs[group] = np.asarray(simulate(model, grid, np.asarray(u0, np.float64), p,
+                                              steps=round(T / 0.01), dt=0.01,
+                                              scheme="etdrk4").state)[0]
+    rows: dict[str, dict[str, Any]] = {}
+
+    def add(label, group, fn, rounds=3, **info):
+        rows[label] = {"group": group, "fn": fn, "rounds": rounds, **info}
+
+    five, spec = grids["5-point"], grids["spectral"]
+    for scheme, rounds in (("euler", 3), ("rk4", 1), ("imex", 3)):
+        dt = max_stable_dt(model, five, p, scheme)
+        add(f"morphogen {scheme} 5-point dt={dt:.4g} (its limit)", "5-point",
+            _morphogen(model, five, u0, p, T, scheme, dt), rounds, scheme=scheme, dt=dt)
+    add("morphogen adaptive (Tsit5) 5-point rtol=1e-3", "5-point",
+        _morphogen(model, five, u0, p, T, "adaptive", max_stable_dt(model, five, p, "euler"),
+                   rtol=1e-3), 1, scheme="adaptive", rtol=1e-3)
+    add("morphogen imex spectral dt=0.1 (its limit)", "spectral",
+        _morphogen(model, spec, u0, p, T, "imex", 0.1), scheme="imex", dt=0.1)
+    for dt in CURVES_DTS:
+        unsafe = dt > max_stable_dt(model, spec, p, "etdrk4") * (1 + 1e-9)
+        n, h = _steps(T, dt)
+
+        def go(h=h, n=n, unsafe=unsafe):
+            sol = simulate(model, spec, u0, p, steps=n, dt=h, scheme="etdrk4", unsafe=unsafe)
+            return np.asarray(sol.state), n
+        add(f"morphogen etdrk4 spectral dt={dt:g}" + (" --unsafe" if unsafe else ""),
+            "spectral", go, scheme="etdrk4", dt=dt)
+        add(f"exponax etdrk4 dt={dt:g}", "spectral", _exponax(problem, p, u0, T, dt),
+            solver="exponax", scheme="etdrk4", dt=dt)
+    for rtol in CURVES_RTOLS:
+        add(f"morphogen etdrk4-adaptive spectral rtol={rtol:g}", "spectral",
+            _morphogen(model, spec, u0, p, T, "etdrk4-adaptive", 0.1, rtol=rtol),
+            scheme="etdrk4-adaptive", rtol=rtol)
+    finals = {k: r["fn"]() for k, r in rows.items()}  # compile, and the accuracy runs
+    times, load_before, load_after = _cpu_rounds({k: r["fn"] for k, r in rows.items()},
+                                                 {k: r["rounds"] for k, r in rows.items()})
+    euler = next(k for k in rows if "euler" in k)
+    euler_cpu = statistics.median(times[euler])
+    table = {}
+    for k, r in rows.items():
+        cpu = statistics.median(times[k])
+        state, steps = finals[k]
+        table[k] = {**{a: b for a, b in r.items() if a != "fn"}, "steps": steps,
+                    "cpu_s_median": round(cpu, 3), "cpu_s_rounds": [round(t, 3) for t in times[k]],
+                    "speedup_vs_euler_cpu": round(euler_cpu / cpu, 2),
+                    **_metrics(state[0], refs[r["group"]])}
+    return {"problem": f"schnakenberg {p}, {SIZE}x{SIZE}, dx=1, periodic, T={T:g}, float32, "
+                       "noise init seed 0",
+            "reference": "morphogen etdrk4 float64 dt=0.01 on the row's discretisation",
+            "timing": "CPU seconds (time.process_time), XLA single-threaded, interleaved rounds",
+            "load_average_before": load_before, "load_average_after": load_after,
+            "results": table}
+
+
+def plot_curves(result: dict, path: Path) -> None:
+    """Error against CPU time of every row of :func:`curves`, one curve per scheme."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.2, 4.8), dpi=120)
+    series: dict[str, list[tuple[float, float, str]]] = {}
+    for label, r in result["results"].items():
+        key = label.split(" dt=")[0].split(" rtol=")[0]
+        tag = label.split("=")[-1].replace(" (its limit)", "").replace(" --unsafe", "*")
+        tag = f"{float(tag[:-1]):.2g}*" if tag.endswith("*") else f"{float(tag):.2g}"
+        series.setdefault(key, []).append((r["cpu_s_median"], r["relative_l2_error"], tag))
+    for key, pts in series.items():
+        pts.sort()
+        style = "s--" if key.startswith("exponax") else "o-"
+        ax.loglog([x for x, _, _ in pts], [y for _, y, _ in pts], style, label=key)
+        for x, y, tag in pts:
+            ax.annotate(tag, (x, y), fontsize=6, xytext=(3, 3), textcoords="offset points")
+    ax.set_xlabel("CPU seconds to t = 30 (one thread, median of interleaved rounds); "
+                  "labels: dt or rtol, * = --unsafe", fontsize=8)
+    ax.set_ylabel("relative L2 error of u (vs float64, same discretisation)")
+    ax.set_title(f"Schnakenberg Dv/Du = 40, {SIZE}², float32", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def run_curves() -> None:
+    """Measure :func:`curves`, store it in ``peers.json`` under ``schnakenberg_curves`` and
+    draw ``docs/images/schemes/stiff_vs_exponax.png``."""
+    result = curves()
+    stored = json.loads(RESULT.read_text()) if RESULT.exists() else {}
+    stored["schnakenberg_curves"] = result
+    RESULT.write_text(json.dumps(stored, indent=2) + "\n")
+    plot_curves(result, Path(__file__).parent.parent / "docs" / "images" / "schemes"
+                / "stiff_vs_exponax.png")
+
+
 if __name__ == "__main__":
+    if sys.argv[1:] == ["curves"]:
+        run_curves()
+        sys.exit(0)
+    if sys.argv[1:] == ["plot-curves"]:
+        plot_curves(json.loads(RESULT.read_text())["schnakenberg_curves"],
+                    Path(__file__).parent.parent / "docs" / "images" / "schemes"
+                    / "stiff_vs_exponax.png")
+        sys.exit(0)
     from bench.run import main
 
     sys.exit(main(["peers"]))

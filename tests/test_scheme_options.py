@@ -17,7 +17,7 @@ from morphogen.runs.settings import BY_NAME
 from morphogen.search.evaluate import Evaluator, Problem
 from morphogen.search.genes import preset_genes
 from morphogen.solvers.auto import population_scheme
-from morphogen.solvers.registry import NAMES
+from morphogen.solvers.registry import NAMES, SCHEMES
 
 SCHNAKENBERG = "examples/schnakenberg.toml"
 
@@ -26,7 +26,8 @@ def test_command_line_choices_are_the_engine_schemes():
     scheme = BY_NAME["scheme"]
     assert scheme.choices_for("simulate") == NAMES
     for command in ("evolve", "atlas", "fit"):
-        assert set(scheme.choices_for(command)) == set(NAMES) - {"adaptive"}
+        assert set(scheme.choices_for(command)) == {n for n in NAMES if SCHEMES[n].population}
+        assert "adaptive" not in scheme.choices_for(command)
 
 
 def test_population_scheme_resolves_auto_and_refuses_adaptive():
@@ -41,6 +42,7 @@ def test_population_scheme_resolves_auto_and_refuses_adaptive():
         population_scheme("adaptive", gray, grid, gray.parameters(), where="search")
 
 
+@pytest.mark.slow
 def test_search_runs_the_scheme_it_is_given():
     problem = Problem(model="gray-scott", genes=tuple(preset_genes("gray-scott")),
                       size=(12, 12), dt=2.0, steps=6, scheme="imex")

@@ -1,6 +1,7 @@
-"""The time loop of an error-controlled run (``scheme="adaptive"``).
+"""The time loop of an error-controlled run (``scheme="adaptive"`` or ``"etdrk4-adaptive"``).
 
-The steps are Tsitouras' 5(4) pair under a PI controller (:mod:`morphogen.solvers.adaptive`).
+The steps are Tsitouras' 5(4) pair (:mod:`morphogen.solvers.adaptive`) or ETDRK4 with an
+embedded second-order estimate (:mod:`morphogen.solvers.etd_adaptive`) under a PI controller.
 Output times do not depend on the step sequence: :func:`simulate_adaptive` integrates from one
 output time to the next (a *segment*, :func:`morphogen.solvers.adaptive.segment`), the last step
 of each segment shortened to land on it exactly, and hands the state to the same monitors as the
@@ -69,6 +70,7 @@ def simulate_adaptive(
     clamp: tuple[float, float] | None = None, every: int | None = None,
     max_snapshots: int = 240, max_steps: int = MAX_STEPS, progress: bool = False,
     unsafe: bool = False, on_chunk: Callable[[int], None] | None = None,
+    scheme: str = "adaptive",
 ) -> AdaptiveRun:
     """Integrate ``u0`` to ``t = steps · dt`` with error control; ``dt`` is the first step.
 
@@ -80,14 +82,14 @@ def simulate_adaptive(
     :data:`~morphogen.solvers.stability.RANGE_FACTOR` beyond the starting scale.
     """
     check_tolerances(rtol, atol)
-    check_deterministic(domain, noise)
+    check_deterministic(domain, noise, scheme)
     species = len(model.species)
     guard.check_steps(max_steps, math.prod(domain.spatial_shape), species)
     u = jnp.asarray(u0)
     dtype = u.dtype
     u = domain.hold(u, domain.boundaries(model.species))
     p = {k: jnp.asarray(v, dtype) for k, v in params.items()}
-    run = segment(model, domain, int(max_steps))
+    run = segment(model, domain, int(max_steps), scheme)
     chunk = every or max(1, min(steps, 250))
     ends = [*range(chunk, steps, chunk), steps] if steps > 0 else []
     shots = Snapshots(max_snapshots, u, final=True) if every else None
@@ -107,7 +109,7 @@ def simulate_adaptive(
             acc, rej = int(acc), int(rej)
             accepted, rejected = accepted + acc, rejected + rej
             if not bool(ok) or accepted + rejected > max_steps:
-                raise _budget_error(max_steps, ta, tb, accepted, rejected)
+                raise _budget_error(max_steps, ta, tb, accepted, rejected, scheme)
             if clamp is not None:
                 u = jnp.clip(u, clamp[0], clamp[1])
             h = (tb - ta) / max(acc, 1)
@@ -127,10 +129,10 @@ def _diverging(chunk: Chunk, names: tuple[str, ...], why: str) -> MorphogenError
         "started from; check the parameters (or --unsafe to run anyway)")
 
 
-def _budget_error(max_steps: int, ta: float, tb: float, accepted: int, rejected: int
-                  ) -> MorphogenError:
+def _budget_error(max_steps: int, ta: float, tb: float, accepted: int, rejected: int,
+                  scheme: str = "adaptive") -> MorphogenError:
     return MorphogenError(
-        f"scheme adaptive used its budget of {max_steps} steps ({accepted} accepted, "
+        f"scheme {scheme} used its budget of {max_steps} steps ({accepted} accepted, "
         f"{rejected} rejected) before reaching t={tb:g} from t={ta:g}: the model is stiff or "
         "diverging; use --scheme imex or etdrk4 for stiff diffusion, a looser --rtol, or "
         "check the parameters")

@@ -17,6 +17,7 @@ import numpy as np
 from morphogen.errors import MorphogenError
 from morphogen.models.expr import compile_expression
 from morphogen.models.model import Model
+from morphogen.util.io import load_npy
 
 COORDINATES = ("x", "y", "z")
 
@@ -71,10 +72,8 @@ def _fits(shape: tuple[int, ...], spatial: tuple[int, ...]) -> bool:
 
 def _field_from_file(name: str, path: str, domain: Any) -> np.ndarray:
     """A prepattern saved with ``numpy.save``: an array broadcastable to the domain."""
-    try:
-        arr = np.asarray(np.load(path, allow_pickle=False), dtype=np.float32)
-    except (OSError, ValueError) as exc:
-        raise MorphogenError(f"parameter {name}: cannot read {path}: {exc}") from None
+    cells = int(np.prod(domain.spatial_shape))
+    arr = np.asarray(load_npy(path, f"parameter {name}: field file", cells), dtype=np.float32)
     if not _fits(arr.shape, domain.spatial_shape):
         raise MorphogenError(
             f"parameter {name}: {path} has shape {arr.shape}, the domain needs "

@@ -34,6 +34,7 @@ import numpy as np
 
 from morphogen.errors import MorphogenError
 from morphogen.models.model import INITIAL_NAMES, Model, Params
+from morphogen.util.io import check_image, check_input_file
 
 Init = Callable[..., np.ndarray]
 MAX_BLOB_WORK = 5e8
@@ -260,10 +261,13 @@ def _image(model, domain, g, e, rng, path: str | Path = ""):
 
     if len(domain.spatial_shape) != 2:
         raise MorphogenError("an image initial condition needs a 2D grid")
+    check_image(path, "initial image")  # header and size, before decoding
     try:
         img = np.asarray(iio.imread(path), np.float64)
-    except (OSError, ValueError) as exc:
-        raise MorphogenError(f"cannot read image {path}: {exc}") from None
+    except Exception:  # imageio raises many types (and multi-line messages) for bad files
+        raise MorphogenError(
+            f"cannot read initial image {path}: not a PNG, JPEG, ... that can be decoded"
+        ) from None
     if img.ndim == 3:
         img = img[..., :3].mean(axis=-1)
     img = (img - img.min()) / max(float(np.ptp(img)), 1e-12)
@@ -287,6 +291,7 @@ def load_state(path: str | Path, species: tuple[str, ...],
     import zipfile
 
     limit = 16 * math.prod(shape) + 4096
+    check_input_file(path, "state file", limit=len(species) * limit + 2**20)
     try:
         data = np.load(path, allow_pickle=False)
         if not isinstance(data, np.lib.npyio.NpzFile):

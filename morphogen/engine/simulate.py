@@ -34,10 +34,10 @@ from morphogen.engine.monitors import (
     first_failure,
 )
 from morphogen.engine.solve_watch import SolveWatch
-from morphogen.errors import DivergenceError, MorphogenError, MorphogenWarning
+from morphogen.errors import DivergenceError, MorphogenError, MorphogenWarning, round_down
 from morphogen.models.model import Array, Model, Params
-from morphogen.solvers.auto import choose_scheme
-from morphogen.solvers.registry import IMPLICIT_DIFFUSION
+from morphogen.solvers.auto import choose_error_controlled, choose_scheme
+from morphogen.solvers.registry import ERROR_CONTROLLED, IMPLICIT_DIFFUSION
 from morphogen.solvers.stability import observed_scale
 from morphogen.solvers.step import Noise, Step, check_stability, make_step, max_stable_dt
 
@@ -191,9 +191,11 @@ def simulate(
         unsafe: skip the stability check and the early divergence detection (NaN, Inf and
             overflow are still reported).
         scheme: a fixed-step scheme (:data:`morphogen.solvers.registry.FIXED_STEP`), ``auto``
-            (:func:`morphogen.solvers.auto.choose_scheme`) or ``adaptive``
-            (:mod:`morphogen.solvers.adaptive`: error control by ``rtol``/``atol``, ``dt`` is the
-            first step and ``steps * dt`` the end time).
+            (:func:`morphogen.solvers.auto.choose_scheme`; with ``rtol``/``atol``:
+            :func:`morphogen.solvers.auto.choose_error_controlled`), ``adaptive``
+            (:mod:`morphogen.solvers.adaptive`) or ``etdrk4-adaptive``
+            (:mod:`morphogen.solvers.etd_adaptive`): error control by ``rtol``/``atol``, ``dt``
+            is the first step and ``steps * dt`` the end time.
         on_chunk: called with ``n`` after each compiled chunk of ``n`` steps (nominal ones,
             ``t / dt``, for ``adaptive``); an exception it raises stops the run there (a
             server's cancel button).
@@ -264,10 +266,12 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
         raise MorphogenError(f"initial state has shape {got}, expected {expected}")
     p = {k: jnp.asarray(v, dtype) for k, v in params.items()}
     if scheme == "auto":
-        scheme = choose_scheme(model, domain, p, batched=batched)
+        scheme = (choose_error_controlled(model, domain, p, batched=batched)
+                  if rtol is not None or atol is not None
+                  else choose_scheme(model, domain, p, batched=batched))
     if isinstance(clamp, str):
         clamp = model.clamp
-    if scheme == "adaptive" or rtol is not None or atol is not None:
+    if scheme in ERROR_CONTROLLED or rtol is not None or atol is not None:
         return _adaptive(model, domain, u, p, batched=batched, steps=steps, dt=dt,
                          scheme=scheme, noise=noise, clamp=clamp, every=every,
                          max_snapshots=max_snapshots, progress=progress, unsafe=unsafe,
@@ -324,13 +328,13 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
 
 def _adaptive(model, domain, u, p, *, batched: bool, steps: int, dt: float, scheme: str,
               rtol, atol, start: float, clamp, **options) -> Solution:
-    """``scheme="adaptive"``: error-controlled steps (:mod:`morphogen.solvers.adaptive`) in the
-    loop of :mod:`morphogen.engine.adaptive_loop`."""
-    if scheme != "adaptive":
-        raise MorphogenError(f"--rtol/--atol control --scheme adaptive, not {scheme}; drop "
-                             "them or use --scheme adaptive")
+    """``scheme="adaptive"`` or ``"etdrk4-adaptive"``: error-controlled steps
+    (:mod:`morphogen.solvers.adaptive`) in the loop of :mod:`morphogen.engine.adaptive_loop`."""
+    if scheme not in ERROR_CONTROLLED:
+        raise MorphogenError(f"--rtol/--atol control --scheme {' or '.join(ERROR_CONTROLLED)}, "
+                             f"not {scheme}; drop them or use one of those")
     if batched:
-        raise MorphogenError("scheme adaptive runs one state at a time (simulate); use euler, "
+        raise MorphogenError(f"scheme {scheme} runs one state at a time (simulate); use euler, "
                              "rk4, imex or etdrk4 for a batch")
     from morphogen.engine.adaptive_loop import simulate_adaptive
     from morphogen.solvers.adaptive import DEFAULT_ATOL, DEFAULT_RTOL
@@ -338,10 +342,10 @@ def _adaptive(model, domain, u, p, *, batched: bool, steps: int, dt: float, sche
     run = simulate_adaptive(
         model, domain, u, p, steps=steps, dt=dt, clamp=tuple(clamp) if clamp else None,
         rtol=DEFAULT_RTOL if rtol is None else rtol, atol=DEFAULT_ATOL if atol is None else atol,
-        **options)
+        scheme=scheme, **options)
     return Solution(state=run.state, t=run.t, steps=run.accepted, snapshots=run.snapshots,
                     snapshot_steps=run.snapshot_steps, wall_time=time.perf_counter() - start,
-                    scheme="adaptive", rejected_steps=run.rejected,
+                    scheme=scheme, rejected_steps=run.rejected,
                     snapshot_times=run.snapshot_times)
 
 
@@ -372,5 +376,6 @@ def _diverging(model: Model, domain: Any, p: Params, dt: float, scheme: str, chu
         except MorphogenError:
             explicit = float("inf")
         if explicit < suggested:
-            alternative = f", or --scheme euler with --dt {explicit:.6g} (its limit)"
+            alternative = (f", or --scheme euler with --dt {round_down(explicit):.6g} (its "
+                           "limit)")
     return DivergenceError(chunk.step, names, float(chunk.t), why, suggested, alternative)

@@ -61,15 +61,15 @@ def check_tolerances(rtol: float, atol: float) -> None:
             raise MorphogenError(f"--{name} must be a positive number, got {value}")
 
 
-def check_deterministic(domain: Domain, noise: Noise | None) -> None:
+def check_deterministic(domain: Domain, noise: Noise | None, scheme: str = "adaptive") -> None:
     """Refuse stochastic terms, naming a scheme that carries them."""
     if noise is not None and noise.amplitude > 0:
         raise MorphogenError(
-            "scheme adaptive controls the error of deterministic models only; use --scheme "
+            f"scheme {scheme} controls the error of deterministic models only; use --scheme "
             "euler (or rk4, imex) for a run with noise")
     if domain.stochastic:
         raise MorphogenError(
-            "scheme adaptive controls the error of deterministic models only; use --scheme "
+            f"scheme {scheme} controls the error of deterministic models only; use --scheme "
             "euler (or rk4) for stochastic mesh diffusion (omega)")
 
 
@@ -88,10 +88,24 @@ def _controller(rtol: Any, atol: Any) -> diffrax.PIDController:
     return diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
 
 
+def _solver(model: Model, domain: Domain, scheme: str) -> diffrax.AbstractAdaptiveSolver:
+    """The embedded pair of an error-controlled scheme: Tsit5 for ``adaptive``, ETDRK4 with
+    its exponential midpoint estimate for ``etdrk4-adaptive``
+    (:mod:`morphogen.solvers.etd_adaptive`)."""
+    if scheme == "adaptive":
+        return diffrax.Tsit5()
+    if scheme == "etdrk4-adaptive":
+        from morphogen.solvers.etd_adaptive import EtdRk4Pair, make_pair
+
+        return EtdRk4Pair(make_pair(model, domain))
+    raise MorphogenError(f"scheme {scheme} is not error-controlled; use adaptive or "
+                         "etdrk4-adaptive with --rtol/--atol")
+
+
 def solve(
     model: Model, domain: Domain, u0: Array, params: Params, ts: Array, *,
     rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL, dt0: float | None = None,
-    t0: float = 0.0, max_steps: int = MAX_STEPS,
+    t0: float = 0.0, max_steps: int = MAX_STEPS, scheme: str = "adaptive",
 ) -> tuple[Array, dict[str, Array]]:
     """States at the times ``ts`` (increasing, ``>= t0``), shape ``(len(ts), S, *spatial)``.
 
@@ -99,11 +113,14 @@ def solve(
     diffrax's checkpointed adjoint). The second value holds ``accepted`` and ``rejected``
     step counts and ``ok`` (false when ``max_steps`` ran out; the states are then ``inf``).
     No host checks: use :func:`morphogen.engine.adaptive_loop.simulate_adaptive` for user runs.
+    ``scheme`` picks the pair (:func:`_solver`); ``etdrk4-adaptive`` reads the requested times
+    off a linear interpolation between its steps.
     """
     u0 = jnp.asarray(u0)
     ts = jnp.asarray(ts, u0.dtype)
     sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(vector_field(model, domain)), diffrax.Tsit5(), t0, ts[-1], dt0,
+        diffrax.ODETerm(vector_field(model, domain)), _solver(model, domain, scheme), t0,
+        ts[-1], dt0,
         domain.hold(u0, domain.boundaries(model.species)), args=params,
         saveat=diffrax.SaveAt(ts=ts), stepsize_controller=_controller(rtol, atol),
         max_steps=max_steps, throw=False,
@@ -114,15 +131,17 @@ def solve(
 
 
 @lru_cache(maxsize=16)
-def segment(model: Model, domain: Domain, max_steps: int) -> Any:
+def segment(model: Model, domain: Domain, max_steps: int, scheme: str = "adaptive") -> Any:
     """Compiled ``(u, p, ta, tb, dt0, rtol, atol, state) -> (u(tb), state, acc, rej, ok)``: one
     segment from ``ta`` to ``tb`` (its last step shortened to land on ``tb``), the controller's
-    ``state`` carried from the previous one; ``ok`` is false when ``max_steps`` ran out."""
+    ``state`` carried from the previous one; ``ok`` is false when ``max_steps`` ran out.
+    ``scheme`` picks the pair (:func:`_solver`)."""
     term = diffrax.ODETerm(vector_field(model, domain))
+    solver = _solver(model, domain, scheme)
 
     def run(u, p, ta, tb, dt0, rtol, atol, state):
         sol = diffrax.diffeqsolve(
-            term, diffrax.Tsit5(), ta, tb, dt0, u, args=p,
+            term, solver, ta, tb, dt0, u, args=p,
             saveat=diffrax.SaveAt(t1=True, controller_state=True),
             stepsize_controller=_controller(rtol, atol), max_steps=max_steps, throw=False,
             controller_state=state,

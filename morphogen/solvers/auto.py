@@ -19,6 +19,10 @@ and ``euler`` otherwise. Schnakenberg with ``Dv/Du = 40`` at ``dx = 1`` has ``s 
 (``euler``: ``imex`` at its limit ran 0.83x Euler's speed at 256²), with ``Dv/Du = 80``
 ``s ≈ 35.6`` (``imex``); Gray-Scott's defaults ``s ≈ 9.8`` (``euler``).
 
+With ``--rtol``/``--atol``, ``auto`` picks an error-controlled scheme instead
+(:func:`choose_error_controlled`): ``etdrk4-adaptive`` where diffusion is solved exactly, else
+``adaptive``.
+
 On meshes, and on grids with Dirichlet boundaries or spatially varying or anisotropic
 diffusion, each implicit solve is a conjugate-gradient iteration (:mod:`morphogen.solvers.imex_cg`)
 whose cost grows with the step, so the threshold there is :data:`AUTO_RATIO_CG`.
@@ -80,6 +84,18 @@ def choose_scheme(model: Model, domain: Domain, params: Params, *, batched: bool
         return "euler"
     fourier = fourier_solves(model, domain, params, batched=batched)
     return STIFF_SCHEME if ratio > (AUTO_RATIO if fourier else AUTO_RATIO_CG) else "euler"
+
+
+def choose_error_controlled(model: Model, domain: Domain, params: Params, *,
+                            batched: bool = False) -> str:
+    """``auto`` with ``--rtol``/``--atol``: ``etdrk4-adaptive`` where diffusion is solved
+    exactly in Fourier space (:func:`fourier_solves`, all species periodic or all no-flux), so
+    that the step is set by the reaction's accuracy alone; ``adaptive`` (Tsit5) elsewhere."""
+    if fourier_solves(model, domain, params, batched=batched):
+        mirror = {bc.kind for bc in domain.boundaries(model.species)}
+        if len(mirror) == 1:
+            return "etdrk4-adaptive"
+    return "adaptive"
 
 
 def population_scheme(scheme: str, model: Model, domain: Domain, params: Params, *,

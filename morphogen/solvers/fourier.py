@@ -61,6 +61,27 @@ class SpectralDiffusion:
             v = v[tuple(slice(0, n) for n in self.shape)]
         return v.astype(dtype)
 
+    def groups(self) -> list[tuple[tuple[int, ...], bool]]:
+        """The species that share a transform: ``(indices, mirror)`` per boundary kind."""
+        return [(tuple(i for i, m in enumerate(self.mirror) if m == kind), kind)
+                for kind in dict.fromkeys(self.mirror)]
+
+    def forward_stack(self, f: Array, mirror: bool) -> Array:
+        """:meth:`forward` of a stack ``(k, *spatial)`` of fields, as one batched transform."""
+        axes = tuple(range(1, f.ndim))
+        if mirror:
+            for ax in axes:
+                f = jnp.concatenate([f, jnp.flip(f, ax)], axis=ax)
+        return jnp.fft.rfftn(f, axes=axes)
+
+    def inverse_stack(self, g: Array, mirror: bool, dtype: Any) -> Array:
+        """Inverse of :meth:`forward_stack`, back on the grid."""
+        ext = tuple(2 * n if mirror else n for n in self.shape)
+        v = jnp.fft.irfftn(g, s=ext, axes=tuple(range(1, g.ndim)))
+        if mirror:
+            v = v[(slice(None), *(slice(0, n) for n in self.shape))]
+        return v.astype(dtype)
+
     def solve_one(self, f: Array, d: Array, c: Array, mirror: bool) -> Array:
         """``(I - c d L)^{-1} f`` for one field, ``mirror`` for a no-flux species."""
         lam = jnp.asarray(self.symbols[mirror], f.dtype)

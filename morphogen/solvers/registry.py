@@ -11,8 +11,9 @@ named by ``module``; adding a scheme is that module plus one row here.
 
 The explicit schemes are the seeds' forward Euler (Skaggs §3.2, Ringham et al. eqs. 2-4) and
 classic RK4; ``imex1``/``imex`` are semi-implicit Euler and ARS(2,2,2) (Ascher, Ruuth and
-Spiteri 1997); ``etdrk4`` is Cox-Matthews ETDRK4 with Kassam-Trefethen φ-functions;
-``adaptive`` is Tsit5 under a PI controller.
+Spiteri 1997); ``etdrk4`` is Cox-Matthews ETDRK4 (φ-functions by series and closed forms);
+``adaptive`` is Tsit5 under a PI controller, ``etdrk4-adaptive`` ETDRK4 with an embedded
+exponential midpoint estimate under the same controller.
 """
 
 from __future__ import annotations
@@ -35,6 +36,8 @@ class SchemeInfo:
             the reaction alone (:mod:`morphogen.solvers.stability`).
         population: a batch can advance with it in lock-step with one ``dt`` (search, atlas).
         live: offered by the web app's live view.
+        error_control: its steps are chosen by an error controller from ``--rtol/--atol``
+            (:mod:`morphogen.engine.adaptive_loop`).
     """
 
     name: str
@@ -45,6 +48,7 @@ class SchemeInfo:
     implicit_diffusion: bool = False
     population: bool = True
     live: bool = True
+    error_control: bool = False
 
 
 SCHEMES: dict[str, SchemeInfo] = {
@@ -61,7 +65,11 @@ SCHEMES: dict[str, SchemeInfo] = {
                    "morphogen.solvers.etd", implicit_diffusion=True),
         SchemeInfo("adaptive", 5, "Tsit5 5(4) with error control (--rtol, --atol)",
                    "morphogen.solvers.adaptive", fixed_step=False, population=False,
-                   live=False),
+                   live=False, error_control=True),
+        SchemeInfo("etdrk4-adaptive", 4,
+                   "etdrk4 with an embedded 2nd-order estimate setting the step (--rtol, --atol)",
+                   "morphogen.solvers.etd_adaptive", fixed_step=False, implicit_diffusion=True,
+                   population=False, live=False, error_control=True),
         SchemeInfo("auto", 0, "imex when the problem is stiff enough to pay, else euler",
                    "morphogen.solvers.auto", fixed_step=False, live=False),
     )
@@ -81,5 +89,8 @@ LIVE: tuple[str, ...] = tuple(n for n, s in SCHEMES.items() if s.live)
 """Schemes the web app's live view offers."""
 
 IMPLICIT_DIFFUSION: tuple[str, ...] = tuple(
-    n for n, s in SCHEMES.items() if s.implicit_diffusion)
-"""Schemes whose step is limited by the reaction alone."""
+    n for n, s in SCHEMES.items() if s.implicit_diffusion and s.fixed_step)
+"""Fixed-step schemes whose step is limited by the reaction alone."""
+
+ERROR_CONTROLLED: tuple[str, ...] = tuple(n for n, s in SCHEMES.items() if s.error_control)
+"""Schemes whose steps an error controller chooses (``--rtol``, ``--atol``)."""

@@ -33,6 +33,7 @@ from morphogen.domains.base import Domain
 from morphogen.errors import MorphogenError, UnstableTimeStepError
 from morphogen.models.model import Array, Model, Params
 from morphogen.solvers.base import stepper
+from morphogen.solvers.registry import ERROR_CONTROLLED
 
 
 @dataclass(frozen=True)
@@ -138,10 +139,11 @@ def max_stable_dt(
     :mod:`morphogen.solvers.stability`); schemes with implicit or exact diffusion are limited by
     the reaction alone (each scheme's :meth:`~morphogen.solvers.base.Stepper.limit`). With
     ``batched`` every parameter has a leading batch axis and the bound is over all members.
-    Anisotropic tensors use their largest eigenvalue. ``adaptive`` has no limit (its controller
-    picks the steps): ``inf``.
+    Anisotropic tensors use their largest eigenvalue. The error-controlled schemes
+    (``adaptive``, ``etdrk4-adaptive``) have no limit (their controller picks the steps):
+    ``inf``.
     """
-    if scheme == "adaptive":
+    if scheme in ERROR_CONTROLLED:
         return float("inf")
     return stepper(scheme).limit(model, domain, params, batched=batched)
 
