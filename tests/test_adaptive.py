@@ -44,6 +44,7 @@ def _mode() -> tuple[np.ndarray, float]:
     return f.astype(np.float32), lam
 
 
+@pytest.mark.slow
 def test_tolerance_controls_the_error_against_the_exact_decay():
     f, lam = _mode()
     results = []
@@ -102,6 +103,7 @@ def test_a_diverging_run_stops_with_one_line():
     assert "\n" not in str(info.value)
 
 
+@pytest.mark.slow
 def test_gradient_matches_finite_differences():
     """Reverse mode (``jax.grad``, diffrax's checkpointed adjoint) through the adaptive steps."""
     grid = Grid((6, 6), boundary="neumann")
@@ -163,6 +165,7 @@ def test_auto_picks_imex_on_stiffer_schnakenberg_and_euler_on_gray_scott():
     assert sol.scheme == "euler"
 
 
+@pytest.mark.slow
 def test_run_file_records_adaptive_steps():
     config = RunConfig(model="examples/schnakenberg.toml", size=[N, N], time=0.2, dt=0.01,
                        scheme="adaptive", rtol=1e-3, atol=1e-6)

@@ -214,8 +214,9 @@ def test_reaching_the_model_ceiling_is_a_blow_up(tmp_path, capsys):
 
 @pytest.mark.parametrize("faces", [10**8, 10**9])
 @pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian"])
-def test_ply_declaring_more_faces_than_its_bytes_is_refused_at_once(tmp_path, faces, fmt):
-    import time
+def test_ply_declaring_more_faces_than_its_bytes_is_refused_at_once(tmp_path, monkeypatch,
+                                                                     faces, fmt):
+    import plyfile
 
     from morphogen.domains.ply import load_mesh
 
@@ -226,10 +227,10 @@ def test_ply_declaring_more_faces_than_its_bytes_is_refused_at_once(tmp_path, fa
         np.eye(3, dtype="<f4").tobytes() + bytes([3]) + np.arange(3, dtype="<i4").tobytes())
     path = tmp_path / "big.ply"
     path.write_bytes(header.encode() + (body.encode() if isinstance(body, str) else body))
-    started = time.perf_counter()
+    # refused from the header: the body is never handed to the parser
+    monkeypatch.setattr(plyfile.PlyData, "read", lambda *a, **k: pytest.fail("body parsed"))
     with pytest.raises(MorphogenError, match=f"declares {faces} face element"):
         load_mesh(path)
-    assert time.perf_counter() - started < 1.0
 
 
 def test_ply_header_check_passes_an_exact_file(tmp_path):

@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from morphogen.util import compile_cache
 
@@ -33,6 +34,7 @@ def _simulate(out, cache) -> dict:
     return json.loads(done.stdout.splitlines()[-1])
 
 
+@pytest.mark.slow
 def test_a_second_process_loads_the_compiled_programs_and_gives_the_same_state(tmp_path):
     cache = tmp_path / "cache"
     first = _simulate(tmp_path / "a", cache)

@@ -10,6 +10,7 @@ from morphogen.search.cvt import CVTMapElites, kmeans_centroids
 from morphogen.search.genes import Gene
 
 
+@pytest.mark.slow
 def test_kmeans_on_an_interval_gives_equal_cells():
     # the centroidal Voronoi tessellation of [0, 1] with K points: (2j + 1) / (2K)
     c = np.sort(kmeans_centroids(4, 1, 20_000, seed=1)[:, 0])
@@ -28,6 +29,7 @@ def test_kmeans_in_a_square_gives_centres_of_mass():
     assert counts.min() > 0.5 / 16 and counts.max() < 1.5 / 16
 
 
+@pytest.mark.slow
 def test_cells_are_nearest_centroids_and_the_archive_keeps_its_invariant():
     me = CVTMapElites(population_size=4, descriptors=("spot_index", "coherence"),
                       centroids=10, samples=2000)
@@ -49,6 +51,7 @@ def test_cells_are_nearest_centroids_and_the_archive_keeps_its_invariant():
         CVTMapElites(population_size=4, centroids=20, samples=10)
 
 
+@pytest.mark.slow
 def test_evolve_cvt_map_elites_writes_its_elites(tmp_path, quality_diversity_run):
     import json
 

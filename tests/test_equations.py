@@ -73,6 +73,7 @@ def test_parsed_terms_equal_library(library_name, file):
     )
 
 
+@pytest.mark.slow
 def test_parsed_gray_scott_simulates_identically():
     parsed = load_model_file(EXAMPLES / "gray-scott.toml")
     built_in = get_model("gray-scott")
@@ -89,6 +90,7 @@ def test_parsed_gray_scott_simulates_identically():
     assert np.abs(runs[0].state - u0).max() > 0.1  # the runs did evolve the state
 
 
+@pytest.mark.slow
 def test_grad_through_parsed_model_matches_library_and_finite_differences():
     parsed = load_model_file(EXAMPLES / "gray-scott.toml")
     built_in = get_model("gray-scott")

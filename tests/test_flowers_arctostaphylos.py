@@ -15,6 +15,8 @@ from morphogen.flowers import urn, urn_flower
 from morphogen.flowers.pipeline import build_mesh, load_pipeline, run_pipeline
 from morphogen.models.registry import load_model
 
+pytestmark = pytest.mark.slow
+
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "flowers" / "arctostaphylos.toml"
 
 

@@ -14,6 +14,8 @@ from scipy.spatial import cKDTree
 
 from morphogen.flowers.pipeline import load_pipeline, run_pipeline
 
+pytestmark = pytest.mark.slow
+
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "flowers" / "digitalis.toml"
 
 

@@ -13,6 +13,8 @@ from morphogen.errors import MorphogenError
 from morphogen.flowers import orchid
 from morphogen.flowers.pipeline import load_pipeline, run_pipeline
 
+pytestmark = pytest.mark.slow
+
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "flowers" / "phalaenopsis-leopard.toml"
 
 

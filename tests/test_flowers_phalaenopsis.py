@@ -16,6 +16,8 @@ from morphogen.errors import MorphogenError
 from morphogen.flowers import Organ, assemble, orchid, petal
 from morphogen.flowers.pipeline import build_mesh, load_pipeline, run_pipeline
 
+pytestmark = pytest.mark.slow
+
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "flowers" / "phalaenopsis-nankung.toml"
 
 

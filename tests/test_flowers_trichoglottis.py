@@ -13,6 +13,8 @@ from scipy.spatial import cKDTree
 
 from morphogen.flowers.pipeline import load_pipeline, run_pipeline
 
+pytestmark = pytest.mark.slow
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "flowers"
 EXAMPLE = EXAMPLES / "trichoglottis.toml"
 SWAPPED = {"lu1": 0.4, "lu2": 0.0049, "lv1": 0.01, "lv2": 0.001225}

@@ -125,6 +125,7 @@ PLY_HEAD = ("ply\nformat {fmt} 1.0\nelement vertex {nv}\nproperty float x\nprope
 @given(st.sampled_from(["ascii", "binary_little_endian", "binary_big_endian", "bogus"]),
        st.integers(0, 10**12), st.integers(0, 10**12), st.binary(max_size=200),
        st.booleans())
+@pytest.mark.slow
 def test_ply_loader_loads_or_refuses(tmp_path_factory, fmt, nv, nf, body, ascii_body):
     from morphogen.domains.ply import load_mesh
 
@@ -154,6 +155,7 @@ ARGS = ["--size", "8x8", "--size", "100000x100000", "--size", "3x3x3x3", "--step
 
 @FAST
 @given(st.lists(st.sampled_from(ARGS) | st.text(max_size=10), max_size=8))
+@pytest.mark.slow
 def test_simulate_arguments_parse_or_refuse(tmp_path_factory, argv):
     from morphogen.cli.main import build_parser
     from morphogen.cli.simulate_cmd import config_from_args

@@ -45,6 +45,7 @@ def problem(target: str, f_range=(0.032, 0.056), k_range=(0.056, 0.068)) -> Prob
                    init="blobs", seed=0, fitness="target", target=target)
 
 
+@pytest.mark.slow
 def test_gradient_fitting_recovers_gray_scott_f_and_k(gray_scott_target):
     """Start at the centre of the gene box, F 19 % and k 3 % too high; Adam on the fitness
     gradient finds both within 10 % (the loss valley runs along the F-k ridge of similar
@@ -62,6 +63,7 @@ def test_gradient_fitting_recovers_gray_scott_f_and_k(gray_scott_target):
     assert abs(k / K_TRUE - 1) < 0.1, k
 
 
+@pytest.mark.slow
 def test_evaluator_gradient_equals_a_plain_scan(gray_scott_target):
     """The chunk-rematerialised, vmapped evaluator gives the gradient that jax.grad gives
     through a plain lax.scan of the same steps (morphogen.engine.simulate.integrate).

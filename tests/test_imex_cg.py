@@ -73,6 +73,7 @@ def _runner(step, p):
     return jax.jit(run)
 
 
+@pytest.mark.slow
 def test_eigenvectors_decay_by_the_scheme_factor(sphere, eigen):
     """imex1 on pure diffusion of a smooth (l = 1) plus a rough Laplacian eigenvector at a
     step 30x the explicit limit: each decays by ``1 / (1 + dt D mu)`` per step, to the CG
@@ -91,6 +92,7 @@ def test_eigenvectors_decay_by_the_scheme_factor(sphere, eigen):
     np.testing.assert_allclose(sol.state[0], expected, atol=2e-5)
 
 
+@pytest.mark.slow
 def test_mass_is_conserved_with_no_flux_and_flux_noise():
     """Field and tensor coefficients on an open mesh with Ringham eq. 17's flux noise (added
     after the implicit step, as after an explicit one): the solve restores the M-weighted mass
@@ -106,6 +108,7 @@ def test_mass_is_conserved_with_no_flux_and_flux_noise():
     assert np.abs(runs[0] - runs[1]).max() > 1e-3  # the noise is there
 
 
+@pytest.mark.slow
 def test_grid_tensor_and_dirichlet_field_converge_at_second_order():
     """A no-flux tensor species (BiCGSTAB) and a held varying-coefficient species (CG on
     ``I - c sqrt(D) L sqrt(D)``), at 8x and 4x the explicit limit, against the same scheme at a
@@ -144,6 +147,7 @@ def test_second_order_on_a_mesh(sphere, eigen):
 
 
 @pytest.mark.parametrize("domain", ["mesh", "grid"])
+@pytest.mark.slow
 def test_gradient_matches_finite_differences(sphere, domain):
     """Through the CG solve (mesh, varying coefficient) and the BiCGSTAB one (grid tensor),
     in float64 so the solver tolerance does not blur the finite difference."""
@@ -178,6 +182,7 @@ def _schnakenberg_sphere(sphere):
     return mesh, p, (ground[:, None] + noise).astype(np.float32)
 
 
+@pytest.mark.slow
 def test_stiff_mesh_model_takes_reaction_limited_steps(sphere):
     """At its reaction limit, 18x the explicit one, imex stays bounded and matches Euler at a
     quarter of the explicit limit to 3 % (relative L2); Euler at that step is refused."""
@@ -199,6 +204,7 @@ def test_stiff_mesh_model_takes_reaction_limited_steps(sphere):
         simulate(SCHNAKENBERG, mesh, u0, p, steps=n, dt=t_end / n)
 
 
+@pytest.mark.slow
 def test_vmap_and_batch_equal_single_runs(sphere, eigen):
     """``jax.vmap`` over ``integrate`` and ``simulate_batch`` (a population with one ``D`` per
     member) give each member's single run."""

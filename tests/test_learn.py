@@ -16,6 +16,8 @@ from morphogen.learn.session import build_loss, load_checkpoint, new_run, train
 from morphogen.learn.textures import crop_size, rotated_crops, state_to_rgb, synthetic_texture
 from morphogen.learn.train import TrainConfig, grow_samples, init_state, make_objective, preset
 
+pytestmark = pytest.mark.slow
+
 TINY = TrainConfig(channels=5, hidden=8, size=16, pool_size=8, batch_size=2, min_steps=4,
                    max_steps=6, iterations=4, seed_every=2, chunk=3, decay_at=(2,),
                    checkpoint_every=2, sample_every=1000, sample_steps=8)

@@ -54,6 +54,7 @@ def sort_quantiles(values, q):
 
 
 @pytest.mark.parametrize("dtype", [jnp.float32, jnp.float64])
+@pytest.mark.slow
 def test_integer_key_quantiles_equal_sorting(dtype):
     """Values bit-identical to ``jnp.sort`` (also with many tied ReLU zeros and negative zeros),
     gradients identical on tie-free values; the keys order as the floats do."""
@@ -92,6 +93,7 @@ def generic_objective(config: TrainConfig):
     return objective
 
 
+@pytest.mark.slow
 def test_objective_value_and_gradient_equal_the_generic_objective():
     """The training objective (channels-last rollout, integer-key quantiles) against the
     generic formulation: value, final states and gradient agree to float32 rounding."""

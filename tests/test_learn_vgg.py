@@ -27,6 +27,7 @@ def small_vgg(path, widths=(4, 4, 6, 6, 8, 8, 8, 10, 10, 10, 12)) -> str:
     return str(path)
 
 
+@pytest.mark.slow
 def test_user_npz_weights_give_five_gram_descriptors(tmp_path):
     extractor = vgg.VGGFeatures(small_vgg(tmp_path / "vgg.npz"))
     out = extractor.apply(extractor.init(), jnp.full((2, 48, 48, 3), 0.5), True)

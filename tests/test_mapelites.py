@@ -16,6 +16,7 @@ FIELDS = np.stack([HEX, -HEX, np.sin(2 * np.pi * X / 16), np.sin(2 * np.pi * Y /
 GENES = [Gene("a", 0.0, 1.0, 0.05), Gene("b", -2.0, 2.0, 0.1)]
 
 
+@pytest.mark.slow
 def test_cells_follow_the_descriptor_grid():
     me = MapElites(population_size=4, descriptors=("spot_index",), bins=3)
     # ranges (-1.5, 1.5), three bins of width 1: spots (0.875) -> 2, holes -> 0, stripes -> 1
@@ -64,6 +65,7 @@ def test_elites_are_replaced_only_by_fitter_genomes_of_their_cell():
     assert qd_score(state) == pytest.approx(float(np.sum(np.asarray(state.inner.fitness))))
 
 
+@pytest.mark.slow
 def test_offspring_are_mutated_elites_except_the_explored_share():
     key = jax.random.PRNGKey(3)
     for explore, near in ((0.0, 8), (0.5, 4)):
@@ -93,6 +95,7 @@ def test_map_elites_needs_fields_and_valid_settings():
         MapElites(population_size=4, descriptors=("euler",))
 
 
+@pytest.mark.slow
 def test_evolve_map_elites_end_to_end(tmp_path, quality_diversity_run):
     from morphogen.search.archive import Archive
     from morphogen.search.strategy import state_from_arrays
@@ -133,6 +136,7 @@ class _CrashAt:
         return self.inner.evaluate(genomes, key, update)
 
 
+@pytest.mark.slow
 def test_map_elites_resume_is_bit_identical(tmp_path):
     from morphogen.search.archive import Archive
     from morphogen.search.evaluate import Problem
@@ -161,6 +165,7 @@ def test_map_elites_resume_is_bit_identical(tmp_path):
         np.testing.assert_array_equal(v, broken[-1][k])
 
 
+@pytest.mark.slow
 def test_elite_map_draws_each_filled_cell_with_its_family():
     from morphogen.search.elitemap import elite_map
 

@@ -123,6 +123,7 @@ def test_mass_conservation_closed_and_open(sphere, kind):
         assert np.std(sol.state) < 0.8 * np.std(u0)  # something actually diffused
 
 
+@pytest.mark.slow
 def test_grid_and_flat_mesh_agree():
     """Gray-Scott with Dirichlet edges: the mesh's interior operator is the 5-point stencil."""
     model = get_model("gray-scott")
@@ -187,6 +188,7 @@ def test_invalid_meshes_are_rejected():
         Mesh(collinear, [[0, 1, 2], [0, 1, 3]])
 
 
+@pytest.mark.slow
 def test_grad_through_mesh_simulation_matches_finite_differences(sphere):
     model = heat()
     step = make_step(model, sphere)
@@ -227,6 +229,7 @@ def test_padded_table_with_tail_matches_sparse_product(monkeypatch):
     assert np.allclose(got, expected, atol=1e-4)
 
 
+@pytest.mark.slow
 def test_batch_on_a_mesh_equals_a_loop():
     from morphogen.engine.simulate import simulate_batch
     from morphogen.solvers.step import batch_params

@@ -5,6 +5,7 @@ import json
 
 import jax
 import numpy as np
+import pytest
 
 from morphogen.cli.main import main
 from morphogen.runs.config import load_run_file
@@ -31,6 +32,7 @@ def test_genome_vectors_round_trip():
     assert vectors[1][6] == 42 and vectors[1][-1] == 0
 
 
+@pytest.mark.slow
 def test_network_run_is_archived_listed_shown_and_replayable(tmp_path, capsys):
     archive_file = tmp_path / "index.sqlite"
     out = tmp_path / "n"
@@ -92,6 +94,7 @@ def test_network_run_is_archived_listed_shown_and_replayable(tmp_path, capsys):
                  "--out", str(tmp_path / "replay"), "--quiet"]) == 0
 
 
+@pytest.mark.slow
 def test_existing_folder_and_bad_resume_are_refused(tmp_path, capsys):
     archive_file = str(tmp_path / "index.sqlite")
     base = ["networks", "--mode", "rates", "--archive", archive_file, "--generations", "1",

@@ -3,6 +3,7 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from morphogen.search.networks.cluster import cell_fitness, cluster_head_fitness
 
@@ -31,6 +32,7 @@ def test_crowded_peaks_by_hand():
     assert float(cluster_head_fitness(d_max=1.5)(jnp.asarray(u[None]))[0]) == 24.0
 
 
+@pytest.mark.slow
 def test_stages_and_thresholds():
     u = _state()
     u[0, 5, 5] = 2.9  # below a_peak: no peaks, every cell dead
@@ -48,6 +50,7 @@ def test_stages_and_thresholds():
     assert float(norm[0]) == 0.25
 
 
+@pytest.mark.slow
 def test_cluster_fitness_serves_ordinary_parameter_searches():
     from morphogen.search.evaluate import Evaluator, Problem
     from morphogen.search.genes import preset_genes

@@ -46,6 +46,7 @@ def test_table2_genome_rates_and_structure():
     assert np.asarray(g.products)[:, 6].tolist() == [3, 0, 1]
 
 
+@pytest.mark.slow
 def test_padded_equals_fixed_structure_model():
     spec = table2_spec()
     g = table2_genome(spec)

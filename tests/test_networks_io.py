@@ -214,6 +214,7 @@ def test_table2_example_file_is_the_exported_table2_network():
     np.testing.assert_allclose(_term(model, u), _term(table2_network().model(), u), rtol=1e-6)
 
 
+@pytest.mark.slow
 def test_drawing_graph_has_one_node_per_reaction_and_fig7_edges():
     net = table2_network()
     g = reaction_graph(net)
@@ -232,6 +233,7 @@ def test_drawing_graph_has_one_node_per_reaction_and_fig7_edges():
     assert b"<svg" in draw_network(net, "svg")[:2000]
 
 
+@pytest.mark.slow
 def test_cli_simulates_antimony_with_diffusion_override(tmp_path, capsys):
     out = tmp_path / "run"
     assert main(["simulate", "examples/networks/table2.ant", "--size", "16x16", "--steps", "10",

@@ -36,6 +36,7 @@ def _one(pop, i):
     return Genome(*(x[i] for x in pop))
 
 
+@pytest.mark.slow
 def test_many_generations_keep_constraints_and_statics():
     pop = random_population(jax.random.key(1), _one(_template(), 0), SPEC, 64, NET)
     ops = Operators(mode="network", p_mutate=1.0, p_mutate_reaction=0.5, p_duplicate=0.5)
@@ -52,6 +53,7 @@ def test_many_generations_keep_constraints_and_statics():
     assert np.array_equal(np.asarray(pop.educts[:, :, :6]), np.broadcast_to(me[:, :6], (64, 3, 6)))
 
 
+@pytest.mark.slow
 def test_mutation_moves_fields_by_one():
     g = table2_genome(table2_spec())
     spec = table2_spec()
@@ -67,6 +69,7 @@ def test_mutation_moves_fields_by_one():
     assert np.array_equal(np.asarray(out.educts), np.broadcast_to(g.educts, out.educts.shape))
 
 
+@pytest.mark.slow
 def test_crossover_preserves_genes_per_slot():
     pop = random_population(jax.random.key(5), _one(_template(), 0), SPEC, 2, NET)
     a, b = _one(pop, 0), _one(pop, 1)
@@ -102,6 +105,7 @@ def test_duplication_copies_a_reaction():
     assert int(d.mantissa[new]) == int(g.mantissa[6])
 
 
+@pytest.mark.slow
 def test_tournament_size_two_probabilities():
     # with fitness ranks 0 < 1 < 2, P(winner = i) = ((i+1)^2 - i^2) / 9 for size 2
     w = np.asarray(tournament(jax.random.key(0), jnp.asarray([0.0, 1.0, 2.0]), 90000, 2))
@@ -112,6 +116,7 @@ def test_tournament_size_two_probabilities():
     assert abs(np.mean(w == 0) - 0.25) < 0.01
 
 
+@pytest.mark.slow
 def test_initial_network_population_has_one_evolvable_reaction():
     pop = random_population(jax.random.key(2), _one(_template(), 0), SPEC, 50, NET)
     assert (np.asarray(pop.active).sum(1) == 7).all()

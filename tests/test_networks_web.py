@@ -36,6 +36,7 @@ def _png(client, url):
     return Image.open(io.BytesIO(r.content))
 
 
+@pytest.mark.slow
 def test_network_run_shows_its_fittest_networks_and_opens_one_in_explore(client):
     r = client.post("/api/evolve/networks", json=SMALL)
     assert r.status_code == 200, r.text

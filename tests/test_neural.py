@@ -43,6 +43,7 @@ def test_fixed_diffusion_groups_and_parameter_count():
     assert list(fixed_diffusion(12)) == [0.125] * 3 + [0.25] * 3 + [0.5] * 3 + [1.0] * 3
 
 
+@pytest.mark.slow
 def test_one_euler_step_is_eq1_with_the_3x3_kernel():
     """x' = x + c_i (K * x_i) d + f(x) r with K = KERNEL_SCALE * 9-point Laplacian."""
     config = NeuralConfig(4, 8)
@@ -100,6 +101,7 @@ def test_pure_diffusion_decays_a_3d_fourier_mode_exactly():
         np.testing.assert_allclose(sol.state[i], factor * mode, atol=2e-5)
 
 
+@pytest.mark.slow
 def test_runs_on_a_mesh_and_conserves_mass_without_reaction():
     trimesh = pytest.importorskip("trimesh")
     from morphogen.domains.mesh import Mesh
@@ -117,6 +119,7 @@ def test_runs_on_a_mesh_and_conserves_mass_without_reaction():
     assert sol.state.std(axis=1).max() < u0.std(axis=1).min()
 
 
+@pytest.mark.slow
 def test_save_load_round_trip_gives_bit_identical_rollouts(tmp_path):
     config = NeuralConfig(6, 12, learn_diffusion=True)
     w = random_weights(config, 3)
@@ -153,6 +156,7 @@ def test_bad_files_and_weights_are_one_line_errors(tmp_path):
         NeuralConfig(2, 8)
 
 
+@pytest.mark.slow
 def test_weights_are_runtime_parameters_with_gradients():
     """Weights passed in the parameter dict override the model's own inside one compiled step,
     and jax.grad reaches them."""
@@ -181,6 +185,7 @@ def test_weights_are_runtime_parameters_with_gradients():
 
 
 @pytest.mark.parametrize("size", ["24x20", "6x12x10"])
+@pytest.mark.slow
 def test_simulate_command_draws_the_rgb_channels(tmp_path, size):
     """``morphogen simulate rule.npz`` shows x0, x1, x2 as red, green, blue (x + 0.5) in
     ``final.png`` (the mid-plane of a volume, plus a montage of slices); ``--species`` or

@@ -23,6 +23,7 @@ def _describe(f):
     return {k: float(v) for k, v in describe(jnp.asarray(f, jnp.float32)).items()}
 
 
+@pytest.mark.slow
 def test_sine_grating_wavelength_and_orientation():
     d = _describe(np.sin(2 * np.pi * X / 16))
     assert d["wavelength"] == 16.0
@@ -93,6 +94,7 @@ def test_dynamics_static_travelling_and_pulsing():
     assert d["pulse"] > 5.0
 
 
+@pytest.mark.slow
 def test_batch_matches_single_and_classifies_synthetic_fields():
     still = lambda f: np.stack([f] * 3)  # noqa: E731
     fields = [HEX, -HEX, np.sin(2 * np.pi * X / 16), np.full((N, N), 0.3), (-1.0) ** (X + Y),
@@ -109,6 +111,7 @@ def test_batch_matches_single_and_classifies_synthetic_fields():
         == "blown-up"
 
 
+@pytest.mark.slow
 def test_classifier_moving_patterns():
     moving = np.stack([np.sin(2 * np.pi * (X - 4 * t) / 16) for t in range(5)])
     noise = np.random.default_rng(0).random((5, N, N))

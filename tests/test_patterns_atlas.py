@@ -21,6 +21,7 @@ def test_frame_tiles_colours_the_border_of_each_tile():
         frame_tiles(tiles, np.array([["spots", "waves"]]), COLOURS)
 
 
+@pytest.mark.slow
 def test_atlas_classify_writes_families_csv(tmp_path):
     out = tmp_path / "atlas"
     # F = 0.01 decays to the uniform state; F = 0.037, k = 0.06 grows a labyrinth

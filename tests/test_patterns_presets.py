@@ -1,10 +1,12 @@
 """The classifier on fixed, seeded Gray-Scott simulations named for their pattern."""
 
 import numpy as np
+import pytest
 
 from morphogen.patterns.presets import EXPECTED, classify_presets
 
 
+@pytest.mark.slow
 def test_gray_scott_presets_are_named_for_what_they_grow():
     names = ["solitons", "holes", "mazes"]
     r = classify_presets(names, size=64, steps=3000, seed=0, count=3, gap=50)

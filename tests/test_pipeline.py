@@ -83,6 +83,7 @@ def test_stages_feed_each_other_and_match_a_direct_run(tmp_path):
     assert (out / "04-gs" / "out.png").is_file() and (out / "04-gs" / "state.npz").is_file()
 
 
+@pytest.mark.slow
 def test_resume_reuses_finished_stages(tmp_path):
     path = _write(tmp_path)
     first = run_pipeline(path, tmp_path / "out")

@@ -37,6 +37,7 @@ def test_chunked_evaluation_pads_and_keeps_order():
     assert metrics["fields"].shape == (7, 1, 3) and metrics["valid"].shape == (7,)
 
 
+@pytest.mark.slow
 def test_evolve_writes_replayable_elites_and_qd_curves(tmp_path, quality_diversity_run):
     from morphogen.cli.main import main
     from morphogen.patterns.descriptors import describe

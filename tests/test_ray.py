@@ -24,6 +24,7 @@ PROBLEM = Problem(model="gray-scott", genes=tuple(preset_genes("gray-scott")),
                   preset="skaggs-table-3.1", size=(24, 24), dt=0.5, steps=120, init="skaggs")
 EV = Evaluation(size=8, dt=0.5, t_start=10.0, interval=5.0, rounds=2)
 
+@pytest.mark.slow
 def test_parameter_batches_on_ray_equal_the_local_evaluation_and_run(local_ray, tmp_path):
     rng = np.random.default_rng(0)
     genomes = np.stack([rng.uniform(0.02, 0.08, 7), rng.uniform(0.04, 0.06, 7)], 1)
@@ -48,6 +49,7 @@ def test_parameter_batches_on_ray_equal_the_local_evaluation_and_run(local_ray, 
     assert results[0] == results[1] and len(results[0]) == 14
 
 
+@pytest.mark.slow
 def test_map_elites_on_ray_equals_the_local_run(local_ray, tmp_path):
     results = []
     for name, executor in (("local", LocalExecutor(PROBLEM)),
@@ -66,6 +68,7 @@ def test_map_elites_on_ray_equals_the_local_run(local_ray, tmp_path):
         np.testing.assert_array_equal(v, remote_state[k])
 
 
+@pytest.mark.slow
 def test_network_batches_on_ray_equal_the_local_evaluation_and_run(local_ray, tmp_path):
     from morphogen.search.networks.ray_workers import RayNetworkEvaluator
 
@@ -90,6 +93,7 @@ def test_network_batches_on_ray_equal_the_local_evaluation_and_run(local_ray, tm
     assert local.shape == (2, 5)
 
 
+@pytest.mark.slow
 def test_cli_ray_run_records_the_local_history(local_ray, tmp_path):
     from morphogen.cli.main import main
 

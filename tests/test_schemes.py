@@ -89,6 +89,7 @@ def test_convergence_order(scheme, order):
 
 @pytest.mark.parametrize(("scheme", "boundary", "steps", "dt", "seed"),
                          [("imex", "neumann", 20, 0.05, 2), ("etdrk4", "periodic", 10, 0.1, 3)])
+@pytest.mark.slow
 def test_gradient_matches_finite_differences(scheme, boundary, steps, dt, seed):
     grid = Grid((12, 12), boundary=boundary)
     model = load_model("schnakenberg")

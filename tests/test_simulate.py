@@ -57,6 +57,7 @@ def test_turing_wavelength_matches_linear_stability(name):
     assert _dominant_wavelength(field) == pytest.approx(predicted, rel=0.15)
 
 
+@pytest.mark.slow
 def test_batch_equals_loop_of_single_runs():
     model, grid = get_model("gray-scott"), Grid((32, 32))
     fs = [0.03, 0.037, 0.045]
@@ -69,6 +70,7 @@ def test_batch_equals_loop_of_single_runs():
         np.testing.assert_allclose(batch[i], single, rtol=1e-5, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_gradient_matches_finite_differences():
     model, grid = get_model("gray-scott"), Grid((16, 16))
     base = model.parameters()

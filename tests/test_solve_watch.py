@@ -29,6 +29,7 @@ def _u0(mesh: Mesh) -> np.ndarray:
     return np.random.default_rng(0).random((1, mesh.n_vertices)).astype(np.float32)
 
 
+@pytest.mark.slow
 def test_a_converged_solve_is_within_its_threshold_and_not_reported(sphere):
     heat = linear("field")
     watch = SolveWatch.for_run(heat, sphere, P, "imex", batched=False)
@@ -64,6 +65,7 @@ def test_exact_fourier_solves_and_explicit_schemes_are_not_watched(sphere):
     assert SolveWatch.for_run(field, Grid((16, 16)), P, "imex1", batched=False) is not None
 
 
+@pytest.mark.slow
 def test_the_command_line_prints_the_warning_on_one_line_and_records_it(tmp_path, monkeypatch):
     from tests.test_cli import run_cli
 

@@ -39,6 +39,7 @@ def _frame_colour(image, res, i, j):
     return tuple(int(c) for c in image[res["pad"] + i * cell, res["pad"] + j * cell, :3])
 
 
+@pytest.mark.slow
 def test_families_are_the_cli_classifier_drawn_as_frames(client, tmp_path):
     res = _done(client, BODY)
     fam = res["families"]

@@ -32,6 +32,7 @@ def wait(client, run, states, timeout=120.0):
 
 
 @pytest.mark.parametrize("name", sorted(LIBRARY))
+@pytest.mark.slow
 def test_every_library_model_evolves_by_favourites(setup, name):
     client, archive = setup
     defaults = client.get(f"/api/evolve/setup/{name}").json()
@@ -64,6 +65,7 @@ def test_every_library_model_evolves_by_favourites(setup, name):
     assert listed[run]["status"] == "done" and listed[run]["model"] == name
 
 
+@pytest.mark.slow
 def test_two_generations_breed_from_the_favourites_and_runs_page_browses_them(setup, tmp_path):
     client, _ = setup
     r = client.post("/api/evolve", json={"model": {"library": "gray-scott"}, "population": 4,
@@ -98,6 +100,7 @@ def test_two_generations_breed_from_the_favourites_and_runs_page_browses_them(se
         assert client.get(f"/api/runs/{run}/files/{rel}").status_code in (400, 404)
 
 
+@pytest.mark.slow
 def test_automatic_fitness_reports_progress_and_stop_works(setup):
     client, _ = setup
     r = client.post("/api/evolve", json={"model": {"library": "gray-scott"}, "population": 3,

@@ -18,6 +18,7 @@ from morphogen.web.recording import colour_table
 from tests.test_web import client, frame, new_session, sim_of  # noqa: F401  (fixture)
 
 
+@pytest.mark.slow
 def test_imex_on_a_rectangle_equals_simulate(client):  # noqa: F811
     """A 48 x 32 grid under IMEX: frames are 48 wide and 32 high, and 2 frames of 8 steps equal
     simulate() with the same scheme for 16 steps; dt's limit is the IMEX one."""

@@ -11,6 +11,7 @@ from fastapi.testclient import TestClient
 from morphogen.web.app import create_app
 
 
+@pytest.mark.slow
 def test_runs_page_lists_the_elites_of_a_map_elites_run(tmp_path, quality_diversity_run):
 
     archive, out = tmp_path / "index.sqlite", tmp_path / "run"

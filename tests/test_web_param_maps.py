@@ -55,6 +55,7 @@ def test_resampling_by_hand():
     assert f[0, 0] == 0.0
 
 
+@pytest.mark.slow
 def test_a_mapped_feed_runs_as_simulate_with_that_field(client):
     """F from an image (left half black, right half white: 0.02 and 0.06, nearest) gives the
     same state as simulate() with that F array; the slider's number is kept for afterwards."""

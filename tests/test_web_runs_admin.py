@@ -18,6 +18,7 @@ def setup(tmp_path_factory):
         yield c, archive
 
 
+@pytest.mark.slow
 def test_a_stopped_run_resumes_at_its_next_generation_and_deletes(setup, tmp_path):
     client, path = setup
     r = client.post("/api/evolve", json={"model": {"library": "gray-scott"}, "population": 2,

