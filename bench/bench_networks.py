@@ -1,20 +1,32 @@
-"""Network evolution: cell-steps/s of the population evaluation (Yamamoto §3.4, Table 1).
+"""Network evolution: cell-steps per CPU-second of the population evaluation (Yamamoto §3.4,
+Table 1), the kernels side by side in one run.
 
-The population is the Table-2 hand-made network with the rates of each individual perturbed,
-evaluated (a) through the padded runtime-structure reaction term
-(:mod:`morphogen.search.networks.reaction`, ``m_max = 9`` slots) and (b) through the
-fixed-structure :func:`morphogen.models.network.mass_action` model of the same network, both
-``vmap``-ed over the population on a 32 × 32 periodic grid, explicit Euler, ``dt = 0.1``, float32.
-Reported: cell-steps/s (individuals × cells × steps / wall seconds, compile excluded), the ratio
-padded / fixed, and the projected time of a full Table-1 run (150 individuals × 1024 cells ×
-38 000 steps × 100 generations ≈ 5.8e11 cell-steps), next to the seed's 20-50 minutes on three
-GTX 480 GPUs and > 30 hours on one CPU.
+Populations of 150 individuals on a 32 × 32 periodic grid, explicit Euler, ``dt = 0.1``,
+float32, 400 steps, from one random state uniform in ``[0.5, 1.5)``:
 
-``culling``: one generation's evaluation (:func:`morphogen.search.networks.evolve.evaluate`) of
-the random initial populations of Experiments 1 (rates, Table-2 network) and 2 (reactions,
-``m ≤ 12``), 150 × 32², Δt = 0.1, at a tenth of Table 1's time (t = 200, every 20, 10 rounds),
-with every individual integrated to the end (before) and with invalid individuals dropped at
-the bounds checks (after); the 1-minute load average is recorded with each.
+- ``table2``: the hand-made Table-2 network (``m_max = 9``: 3 evolvable slots);
+- ``slots12``: 12-slot networks (§4.2, ``m_max = 12``) with all 6 evolvable slots used (the
+  Table-2 reactions and three more at rate ``1e-6``), the most work a Table-1 genome asks.
+
+Kernels: ``lanes`` (:mod:`morphogen.search.networks.lanes`, the evaluation's kernel: member axis
+innermost), ``vmap_padded`` (the earlier evaluation: the padded runtime-structure step of
+``solvers.step.make_step`` under ``vmap``), ``fixed`` (``table2`` only: the fixed-structure
+``models/network.py`` model under ``vmap``), and, when run by the benchmark environment's
+Python (``.venv-bench/bin/python bench/bench_networks.py``, ``make bench-peers``, which has
+Numba), two fused single-thread Numba loops as the reference: ``numba_generic`` does the same
+12-slot arithmetic (zero-rate slots skipped), ``numba_written`` has the Table-2 network written
+out. The Numba kernels live here, never in the package.
+
+Speed is cell-steps per CPU-second of this process (``time.process_time``: all its threads,
+so a kernel that keeps two threads busy is charged for both), the best of ``REPEATS``
+interleaved repeats, each with the 1-minute load average; ratios are to ``lanes`` in the same
+run. ``full_run``: a full Table-1 run (150 × 1024 × 38 000 steps × 100 generations ≈ 5.8e11
+cell-steps, every individual valid: an upper bound, culling drops invalid ones) projected from
+the ``slots12`` and ``table2`` lanes figures for one process per core on 2 cores.
+
+``fitness``: the Table-2 hand-made rates against the seed's Fig. 4 rates (Table 2), full Table-1
+evaluation, with the default initial condition (``init = "steady"``) and the earlier uniform one,
+``DRAWS`` initial draws each.
 """
 
 from __future__ import annotations
@@ -33,87 +45,129 @@ from morphogen.search.networks import evolve
 from morphogen.search.networks.genome import (
     NetworkSpec,
     make_genome,
+    rates,
     stack,
     table2_genome,
     table2_spec,
 )
-from morphogen.search.networks.operators import Operators, random_population
+from morphogen.search.networks.lanes import advance_population
 from morphogen.search.networks.reaction import genome_params, padded_model
 from morphogen.solvers.step import make_step
 
-SIZE, POP, STEPS = 32, 150, 400
+SIZE, POP, STEPS, DT, REPEATS, DRAWS = 32, 150, 400, 0.1, 3, 5
 FULL_RUN = 150 * 32 * 32 * (20000 + 9 * 2000) * 100
+ME = np.array([[2, 0, 2], [0, 1, 0], [1, 1, 0]])
+MP = np.array([[3, 0, 2], [0, 1, 1], [1, 0, 0]])
+FIG4 = [0.0, 0.0, 0.031, 0.015, 0.02, 0.0, 0.094, 0.3, 0.0019]
 
 
-def _timed(step, u, p) -> float:
-    def one(u, p):
-        return integrate(step, u, p, steps=STEPS, dt=0.1, key=jax.random.key(0))[0]
+def populations() -> dict:
+    spec9 = table2_spec()
+    spec12 = NetworkSpec(("A", "B", "C"), 12, (0.005, 0.2, 0.0), fixed=(0, 1),
+                         fixed_rates=(0.0, 0.0))
+    k12 = [0, 0, 0.1, 0.01, 0.02, 0.0, 0.01, 0.1, 0.02, 1e-6, 1e-6, 1e-6]
+    g12 = make_genome(spec12, k12, np.concatenate([ME, np.eye(3, dtype=int)], 1),
+                      np.concatenate([MP, np.eye(3, dtype=int)], 1))
+    return {"table2": (spec9, stack([table2_genome(spec9)] * POP)),
+            "slots12": (spec12, stack([g12] * POP))}
 
-    fn = jax.jit(jax.vmap(one))
-    fn(u, p).block_until_ready()
-    t0 = time.perf_counter()
-    fn(u, p).block_until_ready()
-    return time.perf_counter() - t0
+
+def _cpu(fn) -> tuple[float, float]:
+    load = os.getloadavg()[0]
+    t0 = time.process_time()
+    fn()
+    return time.process_time() - t0, (load + os.getloadavg()[0]) / 2
+
+
+def _jax_kernels(spec: NetworkSpec, pop, u: jax.Array, name: str) -> dict:
+    params = genome_params(pop, spec)
+    step = make_step(padded_model(spec), Grid((SIZE, SIZE)))
+    vmapped = jax.jit(jax.vmap(lambda x, p: integrate(step, x, p, steps=STEPS, dt=DT,
+                                                      key=jax.random.key(0))[0]))
+    out = {"lanes": lambda: advance_population(u, params, spec, STEPS, DT).block_until_ready(),
+           "vmap_padded": lambda: vmapped(u, params).block_until_ready()}
+    if name == "table2":
+        model = yamamoto_activator_inhibitor()
+        fixed_step = make_step(model, Grid((SIZE, SIZE)))
+        fp = {k: jnp.full(POP, v, jnp.float32) for k, v in model.parameters().items()}
+        fixed = jax.jit(jax.vmap(lambda x, p: integrate(fixed_step, x, p, steps=STEPS, dt=DT,
+                                                        key=jax.random.key(0))[0]))
+        out["fixed"] = lambda: fixed(u, fp).block_until_ready()
+    lanes = np.asarray(out["lanes"]())
+    ref = np.asarray(out["vmap_padded"]())
+    err = float(np.max(np.abs(lanes - ref) / np.maximum(np.abs(ref), 1e-6)))
+    return out, err
+
+
+def _numba_kernels(spec: NetworkSpec, pop, u: np.ndarray, name: str) -> dict:
+    try:
+        from bench import net_numba
+    except ImportError:
+        return {}
+    k = np.asarray(rates(pop), np.float32)
+    me, mp = np.asarray(pop.educts), np.asarray(pop.products)
+    d = np.asarray(spec.diffusion, np.float32)
+    out = {"numba_generic": lambda: net_numba.generic(u, k, me, mp, d, STEPS, DT)}
+    if name == "table2":
+        out["numba_written"] = lambda: net_numba.table2(u, k, d, STEPS, DT)
+    return out
+
+
+def speed() -> dict:
+    rng = np.random.default_rng(0)
+    u_np = rng.uniform(0.5, 1.5, (POP, 3, SIZE, SIZE)).astype(np.float32)
+    u = jnp.asarray(u_np)
+    cells = POP * SIZE * SIZE * STEPS
+    result: dict = {}
+    for name, (spec, pop) in populations().items():
+        kernels, err = _jax_kernels(spec, pop, u, name)
+        kernels.update(_numba_kernels(spec, pop, u_np, name))
+        for fn in kernels.values():
+            fn()  # compile
+        rows: dict = {k: {"cpu_s": [], "load_1min": []} for k in kernels}
+        for _ in range(REPEATS):  # interleaved
+            for label, fn in kernels.items():
+                cpu, load = _cpu(fn)
+                rows[label]["cpu_s"].append(round(cpu, 4))
+                rows[label]["load_1min"].append(round(load, 2))
+        for row in rows.values():
+            row["cell_steps_per_cpu_s"] = cells / min(row["cpu_s"])
+        best = rows["lanes"]["cell_steps_per_cpu_s"]
+        for row in rows.values():
+            row["over_lanes"] = row["cell_steps_per_cpu_s"] / best
+        result[name] = {"kernels": rows, "lanes_vs_vmap_padded_max_rel_diff": err}
+    per_core = {n: result[n]["kernels"]["lanes"]["cell_steps_per_cpu_s"] for n in result}
+    result["full_run"] = {
+        "cell_steps": FULL_RUN,
+        "minutes_2_cores_slots12": FULL_RUN / (2 * per_core["slots12"]) / 60,
+        "minutes_2_cores_table2": FULL_RUN / (2 * per_core["table2"]) / 60,
+        "assumes": "every individual valid to t = 3800; one process per core (e.g. "
+                   "--executor ray --batches 2); per-core speed as measured here",
+    }
+    return result
+
+
+def fitness() -> dict:
+    spec = table2_spec()
+    pop = stack([table2_genome(spec), make_genome(spec, FIG4, ME, MP)])
+    out: dict = {}
+    for init in ("steady", "uniform"):
+        ev = evolve.Evaluation(init=init)
+        rows = []
+        for draw in range(DRAWS):
+            u0 = evolve.initial_state(jax.random.key(draw), spec, ev)
+            f, _ = evolve.evaluate(pop, u0, spec, ev)
+            rows.append([round(float(x), 2) for x in f])
+        arr = np.asarray(rows)
+        out[init] = {"hand_made": arr[:, 0].tolist(), "fig4": arr[:, 1].tolist(),
+                     "fig4_wins": int((arr[:, 1] > arr[:, 0]).sum()), "draws": DRAWS}
+    return out
 
 
 def run() -> dict:
-    spec = table2_spec()
-    grid = Grid((SIZE, SIZE))
-    rng = np.random.default_rng(0)
-    g = table2_genome(spec)
-    pop = stack([g] * POP)
-    u = jnp.asarray(rng.uniform(0.5, 1.5, (POP, 3, SIZE, SIZE)), jnp.float32)
-    padded = _timed(make_step(padded_model(spec), grid), u, genome_params(pop, spec))
-    model = yamamoto_activator_inhibitor()
-    p = {k: jnp.full(POP, v, jnp.float32) for k, v in model.parameters().items()}
-    fixed = _timed(make_step(model, grid), u, p)
-    cells = POP * SIZE * SIZE * STEPS
-    rate = cells / padded
-    return {
-        "population": POP, "grid": SIZE, "steps": STEPS,
-        "padded_cell_steps_per_s": rate,
-        "fixed_cell_steps_per_s": cells / fixed,
-        "padded_over_fixed_time": padded / fixed,
-        "full_table1_run_cell_steps": FULL_RUN,
-        "projected_full_run_minutes": FULL_RUN / rate / 60,
-        "seed_anchor": "20-50 min on 3x GTX 480; > 30 h on one CPU",
-        "culling": culling(),
-    }
-
-
-def culling() -> dict:
-    """Seconds of one generation's evaluation without and with early dropping of invalid
-    individuals (compile excluded: each variant runs twice, the second is timed)."""
-    ev = evolve.Evaluation(size=SIZE, dt=0.1, t_start=200.0, interval=20.0, rounds=10)
-    net_spec = NetworkSpec(("A", "B", "C"), 12, (0.005, 0.2, 0.0), fixed=(0, 1),
-                           fixed_rates=(0.0, 0.0))
-    cases = {"exp1_rates": (table2_spec(), table2_genome(table2_spec()), "rates"),
-             "exp2_network": (net_spec, make_genome(net_spec, [0.0] * 12), "network")}
-    out: dict = {"evaluation": {"population": POP, "grid": SIZE, "dt": 0.1, "t_start": 200.0,
-                                "interval": 20.0, "rounds": 10,
-                                "steps": ev.start_steps + 9 * ev.round_steps}}
-    for name, (spec, template, mode) in cases.items():
-        key = jax.random.key(0)
-        pop = random_population(key, template, spec, POP, Operators(mode=mode))
-        u0 = evolve.initial_state(jax.random.fold_in(key, 2), spec, ev)
-        row: dict = {}
-        for label, checks, min_batch in (("before", 0, 10**9), ("after", evolve.CHECKS,
-                                                                  evolve.MIN_BATCH)):
-            saved = evolve.MIN_BATCH
-            evolve.MIN_BATCH = min_batch  # 10**9: every individual integrated every chunk
-            try:
-                evolve.evaluate(pop, u0, spec, ev, checks=checks)
-                load = os.getloadavg()[0]
-                t0 = time.perf_counter()
-                fitness, _ = evolve.evaluate(pop, u0, spec, ev, checks=checks)
-                row[f"{label}_s"] = time.perf_counter() - t0
-                row[f"{label}_load_1min"] = round((load + os.getloadavg()[0]) / 2, 2)
-            finally:
-                evolve.MIN_BATCH = saved
-            row[f"{label}_valid"] = int((fitness > -1.0).sum())
-        row["speedup"] = row["before_s"] / row["after_s"]
-        out[name] = row
-    return out
+    return {"population": POP, "grid": SIZE, "steps": STEPS, "dt": DT,
+            "cpus_allowed": len(os.sched_getaffinity(0)), "speed": speed(),
+            "fitness": fitness(), "seed_anchor": "20-50 min on 3x GTX 480; > 30 h on one CPU"}
 
 
 if __name__ == "__main__":

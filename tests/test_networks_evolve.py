@@ -3,6 +3,7 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from morphogen.domains.grid import Grid
 from morphogen.engine.simulate import integrate
@@ -13,9 +14,10 @@ from morphogen.search.networks.genome import stack, table2_genome, table2_spec
 from morphogen.search.networks.operators import Operators
 from morphogen.solvers.step import make_step
 
-EV = Evaluation(size=12, dt=0.5, t_start=20.0, interval=10.0, rounds=2)
+EV = Evaluation(size=12, dt=0.5, t_start=20.0, interval=10.0, rounds=2, init="uniform")
 
 
+@pytest.mark.slow
 def test_evaluation_matches_fixed_structure_model():
     spec = table2_spec()
     g = table2_genome(spec)
@@ -37,6 +39,7 @@ def test_evaluation_matches_fixed_structure_model():
     assert (states[1] == 0).all()
 
 
+@pytest.mark.slow
 def test_invalid_individuals_leave_the_integration_early(monkeypatch):
     """Stage one of §3.3 on the way to t_start: the 990 a^2 c blow-ups are found invalid at the
     check after 20 steps and only the valid genomes (padded to 8) are integrated further;
@@ -66,6 +69,7 @@ def test_invalid_individuals_leave_the_integration_early(monkeypatch):
     np.testing.assert_allclose(states[::2], full_states[::2], rtol=1e-5, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_rates_run_resumes_bit_identically(tmp_path):
     spec = table2_spec()
     ops = Operators(mode="rates")
@@ -80,6 +84,7 @@ def test_rates_run_resumes_bit_identically(tmp_path):
     assert (np.asarray(pop.educts) == np.asarray(table2_genome(spec).educts)).all()
 
 
+@pytest.mark.slow
 def test_cli_network_mode_runs_and_resumes(tmp_path, capsys):
     import json
 

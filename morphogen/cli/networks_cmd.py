@@ -11,12 +11,13 @@ import numpy as np
 
 from morphogen.cli import networks_export_cmd
 from morphogen.errors import MorphogenError
-from morphogen.util.io import ensure_writable_dir, write_atomic, write_json
+from morphogen.util.guard import WORKING_COPIES, check_count, check_numbers, check_steps
+from morphogen.util.io import check_out_name, ensure_writable_dir, write_atomic, write_json
 from morphogen.util.progress import ProgressBar
 
 DEFAULTS = {"mode": "rates", "population": 150, "generations": 100, "seed": 0, "size": 32,
             "dt": 0.1, "t_start": 2000.0, "interval": 200.0, "rounds": 10, "m_max": 12,
-            "tournament": 2}
+            "tournament": 2, "init": "steady", "init_noise": 0.1}
 """Settings of a new run (Table 1); ``--resume`` takes the run's own instead."""
 
 
@@ -48,6 +49,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--t-start", type=float, help="first evaluation time (default: 2000)")
     p.add_argument("--interval", type=float, help="time between evaluations (default: 200)")
     p.add_argument("--rounds", type=int, help="evaluation rounds (default: 10)")
+    p.add_argument("--init", choices=("steady", "uniform"),
+                   help="initial condition of each evaluation: 'steady' (default) starts every "
+                   "individual at its well-mixed state times 1 + noise, 'uniform' starts all "
+                   "from one state uniform in [0, 2)")
+    p.add_argument("--init-noise", type=float,
+                   help="relative noise of --init steady (default: 0.1, i.e. ±10 %%)")
     p.add_argument("--m-max", type=int, help="reaction slots, network mode (default: 12)")
     p.add_argument("--tournament", type=int, help="default: 2")
     p.add_argument("--archive", help="run archive (default $MORPHOGEN_ARCHIVE or "
@@ -61,6 +68,31 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
     actions = p.add_subparsers(dest="action", metavar="{export}", parser_class=type(p))
     networks_export_cmd.register(actions)
+
+
+MAX_M = 1024
+"""Most reaction slots (``--m-max``) of an evolved network."""
+
+
+def check_counts(args: argparse.Namespace) -> None:
+    """Refuse a count option out of range (a population of 0 or 1 cannot be selected from)."""
+    check_count(args.population, "--population", 2, 100_000)
+    check_count(args.generations, "--generations", 1, 10**6)
+    check_count(args.m_max, "--m-max", 1, MAX_M)
+    check_count(args.tournament, "--tournament", 1, args.population)
+    check_count(args.size, "--size", 3, 1 << 16)
+
+
+def check_cost(args: argparse.Namespace, species: int, steps_per_generation: int) -> None:
+    """Refuse counts out of range and a run whose memory or work exceeds the guard's limits
+    (:mod:`morphogen.util.guard`), before anything is created: the population's states and
+    per-slot reaction rates on every cell, and ``generations`` x steps of every individual."""
+    pop = args.population
+    cells = args.size * args.size
+    check_numbers(pop * cells * (species * (WORKING_COPIES + 1) + args.m_max),
+                  f"a population of {pop} on {args.size}x{args.size} cells",
+                  "use a smaller --size, --population or --m-max")
+    check_steps(steps_per_generation * args.generations, cells, species, batch=pop)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -83,11 +115,12 @@ def run(args: argparse.Namespace) -> int:
         raise MorphogenError("morphogen networks needs --out DIR (the run folder)")
     if args.executor != "ray" and (args.address or args.batches):
         raise MorphogenError("--address and --batches need --executor ray")
-    out = ensure_writable_dir(args.out)
+    out = check_out_name(args.out)
     settings = record.saved_settings(out) if args.resume else DEFAULTS
     for key, value in settings.items():
         if getattr(args, key) is None:
             setattr(args, key, value)
+    check_counts(args)
     if args.mode == "rates":
         spec = table2_spec()
         template = table2_genome(spec)
@@ -97,12 +130,14 @@ def run(args: argparse.Namespace) -> int:
         template = make_genome(spec, [0.0] * spec.m_max)
     ops = Operators(mode=args.mode, tournament=args.tournament)
     ev = Evaluation(size=args.size, dt=args.dt, t_start=args.t_start, interval=args.interval,
-                    rounds=args.rounds)
+                    rounds=args.rounds, init=args.init, init_noise=args.init_noise)
+    check_cost(args, len(spec.species), ev.start_steps + (ev.rounds - 1) * ev.round_steps)
     if args.resume:
         run_id, archive = record.resume(out, args.archive, args.generations)
     elif (out / "state.npz").exists() or (out / "config.json").exists():
         raise MorphogenError(f"{out} already holds a run; use --resume or another --out")
     else:
+        out = ensure_writable_dir(out)  # only once every setting is checked
         archive = Archive(args.archive)
         run_id = record.start(out, archive, {
             "mode": args.mode, "generations": args.generations, "population": args.population,

@@ -25,15 +25,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from morphogen.engine.monitors import OVERFLOW
 from morphogen.errors import MorphogenError
+from morphogen.util.io import check_image
 
 Array = Any
 
 INVALID = -1.0
 FLAT = 0.0
-OVERFLOW = 1e15
-"""Magnitude beyond which a value counts as blown up (as in :mod:`morphogen.engine.simulate`)."""
-
 HUMAN_LAMBDA = 0.9
 """Share of the total fitness given to the selected individuals (Skaggs eq. 3.9)."""
 
@@ -206,6 +205,7 @@ def load_target(path: str, shape: Sequence[int]) -> np.ndarray:
 
     if len(shape) != 2:
         raise MorphogenError("--fitness target needs a 2D grid (--size N or HxW)")
+    check_image(path, "target image")  # header and size, before decoding
     try:
         with Image.open(path) as img:
             grey = img.convert("L").resize((int(shape[1]), int(shape[0])), Image.BILINEAR)

@@ -1,13 +1,26 @@
 """Population evaluation and the generation loop of network evolution (Yamamoto §3.1, §3.3, §3.4).
 
-Evaluation of a population ``(P, …)`` of genomes: every generation draws one random initial
-state (uniform in ``[0, init_high)`` per cell and species) shared by all individuals, "like
-exposing them to the same environment" (§3.1); survivors are re-evaluated under it. The
-system is integrated with explicit Euler (``dt``, periodic grid, 5-point Laplacian) to
+Evaluation of a population ``(P, …)`` of genomes: every generation draws one random field
+shared by all individuals, "like exposing them to the same environment" (§3.1); survivors are
+re-evaluated under it. The seed does not say how its random initial conditions are drawn;
+:attr:`Evaluation.init` chooses (:data:`INIT_KINDS`):
+
+- ``"steady"`` (default): every individual starts near its own homogeneous state, ``s* · (1 +
+  init_noise · ξ)`` per cell and species, with ``ξ`` uniform in ``[-1, 1)`` (the shared field)
+  and ``s*`` the state its well-mixed system (the reaction alone, one cell, explicit Euler at
+  ``dt``) reaches from ``s = 1`` after ``init_relax`` time units: the homogeneous steady state
+  when that is an attractor of the well-mixed system, so a Turing instability grows from the
+  noise. A network whose well-mixed system leaves the valid range starts invalid.
+- ``"uniform"``: every individual starts from the same state, uniform in ``[0, init_high)``
+  (the earlier default). Far from the homogeneous state of many valid networks, it makes
+  e.g. the seed's own Fig. 4 rates (Table 2) blow up.
+
+The system is integrated with explicit Euler (``dt``, periodic grid, 5-point Laplacian) to
 ``t_start``, then scored every ``interval`` time units, ``rounds`` times; the fitness is the
 mean of the rounds (Table 1: ``t = 2000``, every 200, 10 rounds). An individual that is invalid
-at any round (NaN, Inf or beyond ``s_max``) scores ``INVALID`` and its state is zeroed, so it
-can no longer produce NaN for the rest of the evaluation.
+at any round (NaN, Inf, beyond ``s_max`` or negative: the bounds of
+:func:`~morphogen.search.networks.cluster.valid_cells` with ``nonnegative``) scores ``INVALID``
+and its state is zeroed, so it can no longer produce NaN for the rest of the evaluation.
 
 Stage one of the seed's incremental evaluation (§3.3: "eliminate these invalid individuals as
 soon as possible") is also applied on the way to ``t_start``: the bounds are checked
@@ -16,8 +29,9 @@ every check or round only the individuals still valid are integrated further (an
 keeps its zeroed state), gathered into a batch padded to the next power of two, at
 least 8 (so a run compiles at most ``log2(P) - 1`` batch sizes per chunk length).
 
-Each chunk is one ``vmap``-ed ``lax.scan`` over the batch, with the network structure as
-runtime data (:mod:`morphogen.search.networks.reaction`): one compile for every topology.
+Each chunk is one ``lax.scan`` over the batch laid out with the member axis innermost
+(:mod:`morphogen.search.networks.lanes`), the network structure as runtime data: one compile
+per batch size and number of used evolvable slots, never per topology.
 
 The loop state (population, fitness history, PRNG key, generation) is saved after every
 generation to ``state.npz`` in the run folder, written atomically; :func:`run` resumes from it,
@@ -37,17 +51,19 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from morphogen.domains.grid import Grid
-from morphogen.engine.simulate import integrate
 from morphogen.errors import MorphogenError
 from morphogen.search.fitness import INVALID
 from morphogen.search.networks.cluster import S_MAX, cluster_head_fitness
 from morphogen.search.networks.genome import Genome, NetworkSpec
+from morphogen.search.networks.lanes import advance_population
 from morphogen.search.networks.operators import Operators, next_generation, random_population
-from morphogen.search.networks.reaction import genome_params, padded_model
-from morphogen.solvers.step import make_step
+from morphogen.search.networks.reaction import genome_params, padded_reaction
 
 Array = Any
+INIT_KINDS = ("steady", "uniform")
+"""Initial conditions of the evaluation (module docstring)."""
+LEGACY_EV = {"init": "uniform", "init_noise": 0.1, "init_relax": 5000.0}
+"""Settings of a run saved before :attr:`Evaluation.init` existed (uniform starts)."""
 CHECKS = 10
 """Bounds checks on the way to the first scoring round (0: none, every individual runs to it)."""
 MIN_BATCH = 8
@@ -65,10 +81,18 @@ class Evaluation:
     rounds: int = 10
     init_high: float = 2.0
     activator: int = 0
+    init: str = "steady"
+    init_noise: float = 0.1
+    init_relax: float = 5000.0
 
     def __post_init__(self) -> None:
         if self.size < 3 or self.rounds < 1 or not self.dt > 0:
             raise MorphogenError("need size >= 3, rounds >= 1 and dt > 0")
+        if self.init not in INIT_KINDS:
+            raise MorphogenError(f"unknown initial condition {self.init!r}; use one of "
+                                 f"{', '.join(INIT_KINDS)}")
+        if not 0 <= self.init_noise < 1 or self.init_relax < 0 or not self.init_high > 0:
+            raise MorphogenError("need 0 <= init_noise < 1, init_relax >= 0, init_high > 0")
         if self.t_start < 0 or self.interval <= 0:
             raise MorphogenError("need t_start >= 0 and interval > 0")
 
@@ -81,15 +105,10 @@ class Evaluation:
         return max(1, int(round(self.interval / self.dt)))
 
 
-@lru_cache(maxsize=16)
 def _advance(spec: NetworkSpec, size: int, steps: int, dt: float) -> Callable:
-    step = make_step(padded_model(spec), Grid((size, size)))
-
-    def one(u, p):
-        out, _, _ = integrate(step, u, p, steps=steps, dt=dt, key=jax.random.key(0))
-        return out
-
-    return jax.jit(jax.vmap(one))
+    """``advance(u, params) -> u``: ``steps`` Euler steps of a batch ``(B, n, size, size)``,
+    by the population kernel of :mod:`morphogen.search.networks.lanes`."""
+    return lambda u, p: advance_population(u, p, spec, steps, dt)
 
 
 @lru_cache(maxsize=16)
@@ -99,34 +118,72 @@ def _breeder(spec: NetworkSpec, ops: Operators) -> Callable:
 
 @lru_cache(maxsize=16)
 def _score(activator: int) -> Callable:
-    return jax.jit(cluster_head_fitness(species=activator))
+    return jax.jit(cluster_head_fitness(species=activator, nonnegative=True))
+
+
+def within_bounds(u: Array) -> Array:
+    """Bool ``(P,)``: every value of each state ``(P, n, …)`` finite and in ``[0, s_max]``."""
+    return jnp.all(jnp.isfinite(u) & (u >= 0) & (u <= S_MAX), axis=tuple(range(1, u.ndim)))
 
 
 def initial_state(key: Array, spec: NetworkSpec, ev: Evaluation) -> Array:
-    """The generation's shared initial state ``(n, size, size)``."""
-    return jax.random.uniform(key, (spec.n, ev.size, ev.size), jnp.float32, 0.0, ev.init_high)
+    """The generation's shared random field ``(n, size, size)``: the initial state itself
+    (``"uniform"``), or the noise factor ``1 + init_noise · ξ`` (``"steady"``); the start of
+    each individual is :func:`starts`."""
+    shape = (spec.n, ev.size, ev.size)
+    if ev.init == "uniform":
+        return jax.random.uniform(key, shape, jnp.float32, 0.0, ev.init_high)
+    return 1.0 + ev.init_noise * jax.random.uniform(key, shape, jnp.float32, -1.0, 1.0)
+
+
+@lru_cache(maxsize=16)
+def _relax(spec: NetworkSpec, steps: int, dt: float) -> Callable:
+    def one(p):
+        def body(s, _):
+            return s + dt * padded_reaction(s, p["k"], p["Me"], p["Mp"]), None
+
+        return jax.lax.scan(body, jnp.ones(spec.n, jnp.float32), None, length=steps)[0]
+
+    return jax.jit(jax.vmap(one))
+
+
+def homogeneous_states(params: dict, spec: NetworkSpec, ev: Evaluation) -> Array:
+    """``s*`` ``(P, n)``: each well-mixed system after ``init_relax`` from ``s = 1`` (Euler,
+    ``dt``); non-finite or out of bounds when it leaves the valid range."""
+    steps = int(round(ev.init_relax / ev.dt))
+    return _relax(spec, steps, float(ev.dt))({k: params[k] for k in ("k", "Me", "Mp")})
+
+
+def starts(u0: Array, params: dict, spec: NetworkSpec, ev: Evaluation) -> Array:
+    """Initial states ``(P, n, size, size)`` from the shared field ``u0``."""
+    size = params["k"].shape[0]
+    if ev.init == "uniform":
+        return jnp.broadcast_to(u0, (size, *u0.shape))
+    return homogeneous_states(params, spec, ev)[:, :, None, None] * u0[None]
 
 
 def evaluate(pop: Genome, u0: Array, spec: NetworkSpec, ev: Evaluation,
              progress: Callable[[int], None] | None = None,
              checks: int = CHECKS) -> tuple[np.ndarray, np.ndarray]:
     """Fitness ``(P,)`` (mean cluster-head score over the rounds, or ``INVALID``) and the final
-    states ``(P, n, size, size)`` of a population started from the shared state ``u0``.
+    states ``(P, n, size, size)`` of a population started from the shared field ``u0``
+    (:func:`initial_state`, :func:`starts`; an invalid start is invalid at once).
 
     ``checks`` bounds checks before ``t_start`` drop invalid individuals from the integration
     (module docstring); ``progress`` is told every chunk's nominal steps, dropped or not.
     """
     size = pop.mantissa.shape[0]
     params = genome_params(pop, spec)
-    u = jnp.broadcast_to(u0, (size, *u0.shape))
-    ok = jnp.ones(size, bool)
+    u = starts(u0, params, spec, ev)
+    ok = within_bounds(u)
+    u = jnp.where(ok[:, None, None, None], u, 0.0)
     total = jnp.zeros(size, jnp.float32)
     score = _score(ev.activator)
     for steps, scored in _plan(ev, checks):
         alive = np.flatnonzero(np.asarray(ok))
         if steps and alive.size:
             u = _integrate_alive(u, params, alive, spec, ev, steps)
-        within = jnp.all(jnp.isfinite(u) & (jnp.abs(u) <= S_MAX), axis=(1, 2, 3))
+        within = within_bounds(u)
         if scored:
             f = score(u)
             ok = ok & (f != INVALID) & within
@@ -220,6 +277,7 @@ def run(
         if not path.exists():
             raise MorphogenError(f"nothing to resume in {out}: no state.npz")
         pop, history, done, saved = load_state(path)
+        saved["ev"] = {**LEGACY_EV, **saved["ev"]}
         if saved != meta:
             raise MorphogenError(f"{out} holds a run with other settings; resume it with "
                                  "those (give only --out, --resume and --generations)")

@@ -50,8 +50,8 @@ class RayNetworkEvaluator:
         try:
             import ray
         except ImportError:
-            raise MorphogenError("--executor ray needs the 'ray' package: pip install ray") \
-                from None
+            raise MorphogenError("--executor ray needs the 'ray' package: "
+                                 "pip install \"morphogen[ray]\"") from None
         if batches is not None and batches < 1:
             raise MorphogenError(f"--batches must be >= 1, got {batches}")
         self._ray = ray

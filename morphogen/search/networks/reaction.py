@@ -11,6 +11,10 @@ time, so one compiled program evaluates a whole population of *different* topolo
 ``s^e`` is picked from ``1, s, s², s³`` by selects, which is exact for ``e ∈ {0, 1, 2, 3}``
 (``0^0 = 1``; negative ``s`` stays well-defined) and matches the repeated products of the
 fixed-structure :func:`morphogen.models.network.mass_action`.
+
+It is the reference definition (tests, exports, the well-mixed relaxation of
+:func:`morphogen.search.networks.evolve.homogeneous_states`); the evaluation integrates with the
+faster population kernel of :mod:`morphogen.search.networks.lanes`, equal to float32 rounding.
 """
 
 from __future__ import annotations

@@ -12,7 +12,8 @@ show`` summarises it:
 - ``best/best_1.json``: a ``run.json`` whose model is the exported model file
   (:func:`~morphogen.search.networks.export.genome_network`) of the fittest genome so far, so
   ``morphogen simulate --config best/best_1.json`` replays it on the evaluation's grid, time
-  step and number of steps, from a uniform random state in ``[0, init_high)`` as in §3.1.
+  step and number of steps, from the evaluation's kind of initial state: noise of ±``init_noise``
+  around the genome's well-mixed state (``init = "steady"``) or uniform in ``[0, init_high)``.
 
 A generation is recorded *before* ``state.npz`` is saved: a run killed between the two repeats
 that generation on ``--resume`` and records it again (replacing the row), with the same numbers,
@@ -110,7 +111,8 @@ def _config(out: Path) -> dict[str, Any]:
 def saved_settings(out: Path) -> dict[str, Any]:
     """The command-line settings a run folder was started with (``morphogen networks`` names:
     mode, population, seed, generations, size, dt, t_start, interval, rounds, m_max,
-    tournament), so ``--resume`` needs no more than ``--out``."""
+    tournament, init, init_noise), so ``--resume`` needs no more than ``--out``; a run saved
+    before ``init`` existed started from uniform states."""
     config = _config(out)
     try:
         strategy, problem = config["strategy"], config["problem"]
@@ -121,7 +123,9 @@ def saved_settings(out: Path) -> dict[str, Any]:
                 "dt": float(ev["dt"]), "t_start": float(ev["t_start"]),
                 "interval": float(ev["interval"]), "rounds": int(ev["rounds"]),
                 "m_max": int(problem["spec"]["m_max"]),
-                "tournament": int(strategy["tournament"])}
+                "tournament": int(strategy["tournament"]),
+                "init": str(ev.get("init", "uniform")),
+                "init_noise": float(ev.get("init_noise", 0.1))}
     except (KeyError, TypeError, ValueError, AttributeError):
         raise MorphogenError(f"{Path(out) / CONFIG} is damaged; the run cannot be resumed"
                              ) from None
@@ -188,24 +192,40 @@ class Recorder:
         return best_run_file(best, self.spec, self.ev, self.run_id, self.out)
 
 
+_LEGACY_EV = {"init": "uniform"}
+"""A run recorded before ``init`` existed started from uniform states."""
+
+
 def best_run_file(best: dict[str, Any], spec: NetworkSpec, ev: dict[str, Any], run_id: str,
                   out: Path) -> dict[str, Any]:
     """``run.json`` for an archived individual: the exported model file embedded, the
-    evaluation's grid, ``dt`` and steps to its last round, a uniform random initial state."""
+    evaluation's grid, ``dt`` and steps to its last round, and its kind of initial state
+    (noise around the genome's well-mixed state, or uniform)."""
     from morphogen.models.network import to_toml
     from morphogen.runs.config import FORMAT, RunConfig
+    from morphogen.search.networks.evolve import Evaluation, homogeneous_states
     from morphogen.search.networks.export import genome_network
+    from morphogen.search.networks.genome import stack
+    from morphogen.search.networks.reaction import genome_params
 
     dt = float(ev["dt"])
     steps = int(round(ev["t_start"] / dt)) + (int(ev["rounds"]) - 1) * max(
         1, int(round(ev["interval"] / dt)))
-    net = genome_network(vector_genome(best["genome"], spec), spec, name=f"{run_id}-best",
-                         dt=dt, t_end=steps * dt,
-                         description=f"best genome of run {run_id} (fitness "
+    genome = vector_genome(best["genome"], spec)
+    evaluation = Evaluation(**{**_LEGACY_EV, **ev})
+    initial, init = None, ("random", {"low": 0.0, "high": float(evaluation.init_high)})
+    if evaluation.init == "steady":
+        state = np.asarray(homogeneous_states(genome_params(stack([genome]), spec), spec,
+                                              evaluation))[0]
+        if np.isfinite(state).all():
+            initial = tuple(float(x) for x in state)
+            init = ("noise", {"amplitude": float(evaluation.init_noise)})
+    net = genome_network(genome, spec, name=f"{run_id}-best", dt=dt, t_end=steps * dt,
+                         initial=initial, description=f"best genome of run {run_id} (fitness "
                          f"{best['fitness']:.2f})")
     config = RunConfig(model=f"{out.name}-best.toml", model_source=to_toml(net),
-                       size=[int(ev["size"])] * 2, dt=dt, steps=steps, init="random",
-                       init_options={"low": 0.0, "high": float(ev["init_high"])}, clamp=None)
+                       size=[int(ev["size"])] * 2, dt=dt, steps=steps, init=init[0],
+                       init_options=init[1], clamp=None)
     record = {"format": FORMAT, "config": asdict(config)}
     record["evolved"] = {"run": run_id, "generation": best["gen"], "index": best["idx"],
                          "fitness": best["fitness"], "fitness_kind": "cluster"}
