@@ -1,4 +1,5 @@
-"""``morphogen gallery flowers [--out DIR] [--only NAME...]``: every flower case study, one page.
+"""``morphogen gallery flowers [--out DIR] [--only NAME...]``: every flower case study, one page;
+``morphogen gallery neural``: every shipped neural RD rule (:mod:`morphogen.cli.gallery_neural`).
 
 Each flower pipeline (Ringham et al. 2021, §4) under ``examples/flowers/*.toml``, plus the two
 older mesh pipelines ``examples/mimulus-mesh-pipeline.toml`` (§4.5) and
@@ -97,6 +98,51 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="reuse stages already finished in DIR/NAME with the same settings")
     fl.add_argument("--list", action="store_true", help="list the flowers and exit")
     fl.set_defaults(func=run_gallery_cmd)
+    nr = kinds.add_parser("neural", help="every shipped neural RD rule: its target, runs from "
+                          "three seeds, a mesh and a volume, and the confusion table, into DIR")
+    nr.add_argument("--out", default="out/neural", metavar="DIR",
+                    help="output directory (default out/neural)")
+    nr.add_argument("--only", nargs="+", metavar="NAME", help="show only these rules")
+    nr.add_argument("--rule", action="append", default=[], metavar="NAME=FILE",
+                    help="show this model file in place of the shipped rule NAME")
+    nr.add_argument("--size", type=int, default=64, help="side of the plane runs (64)")
+    nr.add_argument("--steps", type=int, default=5000, help="steps of the plane runs (5000)")
+    nr.add_argument("--seeds", type=int, default=3, help="plane runs per rule (3)")
+    nr.add_argument("--mesh-edge", type=float, default=0.02, metavar="H",
+                    help="corolla edge before scaling to unit edges (0.02: ~7 000 vertices)")
+    nr.add_argument("--mesh-time", type=float, default=2000.0, metavar="T",
+                    help="time units on the mesh (2000)")
+    nr.add_argument("--volume", default="16x48x48", metavar="DxHxW",
+                    help="3D grid (16x48x48)")
+    nr.add_argument("--volume-steps", type=int, default=3000, help="3D steps of 0.5 (3000)")
+    nr.set_defaults(func=run_neural_cmd)
+
+
+def run_neural_cmd(args: argparse.Namespace) -> int:
+    from morphogen.cli.gallery_neural import NeuralGallery, run_neural_gallery
+
+    try:
+        volume = tuple(int(v) for v in args.volume.lower().split("x"))
+    except ValueError:
+        volume = ()
+    if len(volume) != 3 or min(volume) < 4:
+        raise MorphogenError(f"--volume takes DxHxW with sides >= 4, got {args.volume!r}")
+    if min(args.size, args.steps, args.seeds) < 1 or args.size < 8:
+        raise MorphogenError("--size >= 8, --steps and --seeds >= 1")
+    if not (0 < args.mesh_edge <= 0.5) or args.mesh_time <= 0 or args.volume_steps < 1:
+        raise MorphogenError("--mesh-edge in (0, 0.5], --mesh-time and --volume-steps > 0")
+    rules = {}
+    for item in args.rule:
+        name, sep, path = item.partition("=")
+        if not sep or not name or not path:
+            raise MorphogenError(f"--rule takes NAME=FILE, got {item!r}")
+        rules[name] = path
+    cfg = NeuralGallery(size=args.size, steps=args.steps, seeds=args.seeds,
+                        mesh_edge=args.mesh_edge, mesh_time=args.mesh_time, volume=volume,
+                        volume_steps=args.volume_steps)
+    page = run_neural_gallery(args.out, cfg, only=args.only, rules=rules)
+    print(f"wrote {page}")
+    return 0
 
 
 def run_gallery_cmd(args: argparse.Namespace) -> int:
