@@ -54,6 +54,7 @@ def run_cli_process(*args: str) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, env=env, timeout=600)
 
 
+@pytest.mark.slow
 def test_simulate_writes_outputs_and_config_reproduces(tmp_path):
     out = tmp_path / "gs"
     assert main(["simulate", "gray-scott", "--size", "48x48", "--steps", "400", "--every",
@@ -73,6 +74,7 @@ def test_simulate_writes_outputs_and_config_reproduces(tmp_path):
         np.testing.assert_array_equal(a[s], b[s])
 
 
+@pytest.mark.slow
 def test_equation_file_runs_and_its_text_travels_in_run_json(tmp_path):
     model_file = tmp_path / "schnak.toml"
     model_file.write_text(SCHNAKENBERG)
@@ -94,6 +96,7 @@ def test_3d_run_writes_slice_and_montage(tmp_path):
     assert np.load(out / "state.npz")["v"].shape == (12, 16, 16)
 
 
+@pytest.mark.slow
 def test_atlas_is_one_labelled_mosaic(tmp_path):
     out = tmp_path / "atlas"
     assert main(["atlas", "gray-scott", "--x", "k=0.05:0.065:3", "--y", "F=0.02:0.05:2",
@@ -189,6 +192,7 @@ def test_blow_up_is_reported_with_step(tmp_path):
     assert not (tmp_path / "o" / "state.npz").exists()
 
 
+@pytest.mark.slow
 def test_float64_on_request(tmp_path):
     result = run_cli_process("simulate", "gray-scott", "--size", "16x16", "--steps", "5", "--x64",
                      "--out", str(tmp_path / "o"))
@@ -219,7 +223,7 @@ def test_mesh_run_takes_species_and_parameter_fields_from_the_ply(tmp_path):
              PlyElement.describe(face, "face")]).write(str(tmp_path / "sheet.ply"))
     out = tmp_path / "o"
     assert main(["simulate", "gray-scott", "--mesh", str(tmp_path / "sheet.ply"), "--steps", "1",
-                 "--dt", "0.01", "--out", str(out), "--quiet"]) == 0
+                 "--mesh-field", "all", "--dt", "0.01", "--out", str(out), "--quiet"]) == 0
     state = np.load(out / "state.npz")
     np.testing.assert_allclose(state["v"], v0.ravel(), atol=0.01)
     resolved = json.loads((out / "run.json").read_text())["resolved"]["params"]

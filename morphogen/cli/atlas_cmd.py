@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import warnings
 from pathlib import Path
 
 from morphogen.cli import options
-from morphogen.errors import MorphogenError
+from morphogen.errors import MorphogenError, MorphogenWarning
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -45,9 +46,15 @@ def run(args: argparse.Namespace) -> int:
     from morphogen.patterns.classify import COLOURS
     from morphogen.render import atlas_image, colour_limits, state_image, write_png
     from morphogen.render.mosaic import frame_tiles
-    from morphogen.runs.atlas import Axis, classify_atlas, compute_atlas, write_families
+    from morphogen.runs.atlas import (
+        Axis,
+        classify_atlas,
+        compute_atlas,
+        instability_report,
+        write_families,
+    )
     from morphogen.runs.prepare import set_precision
-    from morphogen.util.io import ensure_writable_dir, write_json, write_npz
+    from morphogen.util.io import check_writable_dir, ensure_writable_dir, write_json, write_npz
 
     model = load_model(args.model)
     x, y = Axis.parse(args.x), Axis.parse(args.y)
@@ -63,17 +70,23 @@ def run(args: argparse.Namespace) -> int:
     watch = _watch(args.watch, steps) if args.classify else None
     if watch and len(grid.shape) != 2:
         raise MorphogenError("--classify works on 2D grids; give --size as WxH")
-    out = ensure_writable_dir(args.out or Path("out") / f"atlas-{Path(args.model).stem}")
+    out = check_writable_dir(args.out or Path("out") / f"atlas-{Path(args.model).stem}")
     atlas = compute_atlas(model, grid, x, y, params=run["params"], steps=steps, dt=dt,
                           init=run["init"], seed=run["seed"],
                           progress=options.show_progress(args), unsafe=run["unsafe"],
                           watch=watch, scheme=run["scheme"])
+    ensure_writable_dir(out)  # only once the run has passed its checks and finished
     fields = atlas.states[:, :, index]
     if fields.ndim == 5:
         fields = fields[:, :, fields.shape[2] // 2]
     lo, hi = colour_limits(fields[atlas.valid] if atlas.valid.any() else fields)
     tiles = np.stack([[state_image(f, run["cmap"], lo, hi) for f in row] for row in fields])
     title = f"{model.name}: {species} after {steps} steps (dt={dt:g})"
+    unstable = ~atlas.valid | atlas.unstable
+    report = instability_report(atlas)
+    if report:
+        warnings.warn(report, MorphogenWarning, stacklevel=1)
+        title += f", {int(unstable.sum())} numerically unstable"
     families = None
     if watch:
         labels, descriptors = classify_atlas(atlas, index)
@@ -84,17 +97,20 @@ def run(args: argparse.Namespace) -> int:
     write_png(out / "atlas.png", atlas_image(tiles, x.name, x.values, y.name, y.values,
                                              title=title))
     write_npz(out / "atlas.npz", {species: fields, x.name: x.values, y.name: y.values,
-                                  "valid": atlas.valid})
+                                  "valid": atlas.valid, "unstable": unstable})
     write_json(out / "atlas.json", {
         "model": model.name, "x": {"name": x.name, "values": x.values},
         "y": {"name": y.name, "values": y.values}, "size": list(grid.shape), "dt": dt,
         "steps": steps, "scheme": atlas.scheme, "seed": run["seed"],
         "invalid": int((~atlas.valid).sum()),
+        "unstable": [{x.name: float(x.values[j]), y.name: float(y.values[i])}
+                     for i, j in zip(*np.nonzero(unstable), strict=True)],
         "wall_time_s": round(atlas.wall_time, 3), "families": families,
         **({"precision": run["precision"]} if run["precision"] != "float32" else {}),
     })
     print(f"wrote {out}/atlas.png ({len(y.values)}x{len(x.values)} runs, "
-          f"{atlas.wall_time:.1f} s, {(~atlas.valid).sum()} blew up)")
+          f"{atlas.wall_time:.1f} s, {(~atlas.valid).sum()} blew up, "
+          f"{int(atlas.unstable.sum())} ended in a checkerboard)")
     return 0
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from morphogen.cli import options
@@ -13,7 +14,16 @@ from morphogen.search.evaluate import FITNESS_KINDS, Problem
 from morphogen.search.executors import EXECUTORS, make_executor
 from morphogen.search.fitness import ask_selection
 from morphogen.search.genes import Gene, check_genes, preset_genes
-from morphogen.search.run import STRATEGIES, evolve, resolve_run, set_generations, start
+from morphogen.search.run import (
+    STRATEGIES,
+    evolve,
+    make_strategy,
+    resolve_run,
+    set_generations,
+    start,
+)
+from morphogen.util.guard import LIMITS, check_count, check_numbers, check_steps
+from morphogen.util.io import check_image
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -92,6 +102,15 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     )
     if args.fitness != "target" and args.target:
         raise MorphogenError("--target is used only with --fitness target")
+    if args.target:
+        check_image(args.target, "target image")
+    population = check_count(args.population, "--population", 1, LIMITS.batch)
+    cells = math.prod(problem.size)
+    check_numbers(2 * population * len(model.species) * cells,
+                  f"a population of {population} on {cells:,} cells",
+                  "use a smaller --population or --size")
+    check_steps(problem.steps * (args.generations or GENERATIONS), cells, len(model.species),
+                batch=population)  # the whole search's cell updates
     return problem
 
 
@@ -142,6 +161,7 @@ def run(args: argparse.Namespace) -> int:
         gradient = STRATEGIES[strategy["name"]].needs_gradient
         executor = make_executor(args.executor, problem, gradient=gradient,
                                  **options_for)  # validates first
+        make_strategy(strategy)  # checks --population, --elitism, --tournament
         archive = Archive(args.archive)
         run_id, _ = start(problem, strategy, generations=args.generations or GENERATIONS,
                           seed=problem.seed,

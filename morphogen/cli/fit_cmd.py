@@ -23,7 +23,7 @@ from morphogen.search.gradient import (
     fit,
     target_field_image,
 )
-from morphogen.util.io import ensure_writable_dir, write_atomic, write_json
+from morphogen.util.io import check_writable_dir, ensure_writable_dir, write_atomic, write_json
 from morphogen.util.progress import ProgressBar
 
 
@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     if args.population < 2:
         raise MorphogenError("--population must be at least 2")
     problem = problem_from_args(args)
-    out = ensure_writable_dir(args.out or Path("out") / "fit" / Path(args.model).stem)
+    out = check_writable_dir(args.out or Path("out") / "fit" / Path(args.model).stem)
     strategy = GradientAscent(population_size=args.population,
                               learning_rate=args.learning_rate, start=args.start)
     evaluate = GradientEvaluator(problem, features=args.features, n_rot=args.n_rot)
@@ -105,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     best = {g.name: float(v) for g, v in zip(problem.genes, result.best_genome, strict=True)}
+    ensure_writable_dir(out)  # only once the fit has passed its checks and finished
     write_json(out / "fit.json", {
         "best": best,
         "best_loss": -result.best_fitness,

@@ -54,7 +54,7 @@ COMMANDS: dict[str, Command] = {
     "morphogen.cli.demo_cmd": Command(
         "demo", "write the demo gallery: every library model, a growing pattern, an atlas"),
     "morphogen.cli.export_web_cmd": Command(
-        "export-web", "write a self-contained HTML page that runs a model in the browser"),
+        "export-web", "write a self-contained HTML page that runs a model in the browser (WebGL2)"),
 }
 """Modules that provide sub-commands, in the order ``--help`` lists them."""
 

@@ -64,6 +64,10 @@ def run(args: argparse.Namespace) -> int:
         genome = False
     else:
         net, _ = run_network(source)
+    from morphogen.util.io import check_out_name, ensure_writable_dir
+
+    check_out_name(out)
+    ensure_writable_dir(out.absolute().parent)  # like every --out: made if absent, once checked
     write_network(net, fmt, out, evolvable_only=genome and not args.all_reactions)
     print(f"wrote {out} ({fmt})")
     return 0

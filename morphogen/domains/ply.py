@@ -16,7 +16,7 @@ adds the rendered picture.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +25,7 @@ import numpy as np
 from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model, Params
-from morphogen.util.io import ensure_writable_dir, write_atomic
+from morphogen.util.io import check_input_file, ensure_writable_dir, write_atomic
 
 COLOUR_CHANNELS = ("red", "green", "blue", "alpha")
 _POSITION = ("x", "y", "z")
@@ -35,8 +35,9 @@ def _read(path: str | Path):
     from plyfile import PlyData
 
     p = Path(path)
-    if not p.is_file():
+    if not p.exists():
         raise MorphogenError(f"mesh file {p} does not exist")
+    check_input_file(p, "mesh file", limit=float("inf"))  # a device or FIFO never ends
     check_declared_sizes(p)
     try:
         with open(p, "rb") as fh:
@@ -222,17 +223,28 @@ def save_ply(
     return write_atomic(path, ply.write)
 
 
+def field_clashes(model: Model, mesh: Mesh) -> list[str]:
+    """The mesh's fields named like one of the model's species or parameters, in the model's
+    order (species first)."""
+    return [n for n in (*model.species, *model.params) if n in mesh.fields]
+
+
 def apply_fields(
-    model: Model, mesh: Mesh, u0: np.ndarray, params: Params
+    model: Model, mesh: Mesh, u0: np.ndarray, params: Params,
+    names: Collection[str] | None = None,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """Use a mesh's fields named like species as initial values and like parameters as
-    per-vertex parameter values; ``u0`` is ``(S, V)``. Returns new ``(u0, params)``."""
+    per-vertex parameter values; ``u0`` is ``(S, V)``. Returns new ``(u0, params)``.
+
+    ``names`` limits this to the fields named there (a front end passes the ones the user
+    asked for); ``None`` applies every field named like a species or parameter."""
+    use = set(field_clashes(model, mesh) if names is None else names)
     u = np.array(u0, np.float32, copy=True)
     for i, s in enumerate(model.species):
-        if s in mesh.fields:
+        if s in mesh.fields and s in use:
             u[i] = mesh.fields[s]
     out = dict(params)
     for name in model.params:
-        if name in mesh.fields:
+        if name in mesh.fields and name in use:
             out[name] = np.asarray(mesh.fields[name], np.float32)
     return u, out

@@ -46,13 +46,18 @@ parameters, initial values, boundary values or the anisotropy direction. ::
                                   # from init and same-named fields
     boundary = { u = "dirichlet=0@margin" }
 
-In a simulation stage, fields named like a species are its initial values and fields named like
-a parameter its values per vertex (as in PLY files); the final state's species become fields
+In a simulation stage, fields an earlier stage made and named like a species are its initial
+values, those named like a parameter its values per vertex; the mesh's own fields (a PLY file's,
+a generated shape's) only where ``params`` names them or a ``fields`` stage copies them (``fields
+= { v = "v" }``), never by their name alone. The final state's species become fields
 (renamed with ``outputs = { v = "v1" }``). Each stage writes ``DIR/NN-NAME/`` (``out.ply``,
 ``out.png``, ``fields.npz``, ``stage.json``); ``DIR/final.ply`` holds every field and
 ``DIR/pipeline.json`` a record. With ``resume``, stages whose ``stage.json`` matches and whose
-``fields.npz`` exists are not recomputed. A front end follows a run with ``report(k, n, share)``
-(stage ``k`` of ``n``, the share of it done) and stops it by raising from that call.
+``fields.npz`` exists, and which ``pipeline.json`` lists as finished, are not recomputed;
+``pipeline.json`` is written after every stage with ``"status": "partial"`` (and the stage
+that failed, if one did) and ends as ``"done"``. A front end follows a run with
+``report(k, n, share)`` (stage ``k`` of ``n``, the share of it done) and stops it by raising
+from that call.
 """
 
 from __future__ import annotations
@@ -69,7 +74,13 @@ import numpy as np
 from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
 from morphogen.models.text import toml_text
-from morphogen.util.io import ensure_writable_dir, write_json, write_npz
+from morphogen.util.io import (
+    check_out_name,
+    ensure_writable_dir,
+    read_text,
+    write_json,
+    write_npz,
+)
 
 KINDS = ("positional", "fields", "points", "veins", "simulate")
 _KEYS = {
@@ -84,16 +95,21 @@ _KEYS = {
                  "cmap", "unsafe", "scheme", "rtol", "atol"},
 }
 _COMMON = {"kind", "name", "view"}
+_INTEGERS = {"count", "seed", "points", "iterations", "refill", "steps"}
+"""Stage keys whose value is a whole number."""
+_NUMBERS = {"source_value", "sink_value", "decay", "low", "high", "influence", "kill", "step",
+            "tip_radius", "birth", "min_branch", "gamma", "time", "dt", "omega", "rtol", "atol"}
+"""Stage keys whose value is a finite number."""
+_TABLES = {"params", "initial", "boundary", "outputs", "init_options", "fields"}
+"""Stage keys whose value is a table."""
 
 
 def load_pipeline(path: str | Path) -> dict[str, Any]:
     """Read and check a pipeline file; returns ``{"mesh": {...}, "stage": [...], "base": dir}``."""
     p = Path(path)
-    if not p.is_file():
-        raise MorphogenError(f"pipeline file {p} does not exist")
     try:
-        data = toml_text.loads(p.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        data = toml_text.loads(read_text(p, "pipeline file"))
+    except tomllib.TOMLDecodeError as exc:
         raise MorphogenError(f"pipeline file {p}: {exc}") from None
     extra = set(data) - {"mesh", "stage", "seed", "cmap", "view"}
     if extra:
@@ -105,6 +121,8 @@ def load_pipeline(path: str | Path) -> dict[str, Any]:
     if not isinstance(stages, list) or not stages:
         raise MorphogenError(f"pipeline file {p} has no [[stage]] tables")
     for i, stage in enumerate(stages, 1):
+        if not isinstance(stage, dict):
+            raise MorphogenError(f"stage {i}: write each stage as a [[stage]] table")
         kind = stage.get("kind")
         if kind not in KINDS:
             raise MorphogenError(f"stage {i}: kind must be one of {', '.join(KINDS)}, got {kind!r}")
@@ -112,7 +130,25 @@ def load_pipeline(path: str | Path) -> dict[str, Any]:
         if unknown:
             raise MorphogenError(f"stage {i} ({kind}): unknown keys {sorted(unknown)}; allowed: "
                                  f"{', '.join(sorted(_KEYS[kind] | _COMMON))}")
+        check_stage_values(stage, f"stage {i} ({kind})")
     return {**data, "base": p.parent}
+
+
+def check_stage_values(stage: Mapping[str, Any], where: str) -> None:
+    """Refuse a stage value of the wrong type before anything runs: whole numbers
+    (``steps``, ``count``, ...), finite numbers (``dt``, ``decay``, ...), tables (``params``,
+    ``initial``, ...), and a ``model`` for a simulation."""
+    for key, value in stage.items():
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        if key in _INTEGERS and not (number and isinstance(value, int)):
+            raise MorphogenError(f"{where}: {key} must be an integer, got {value!r}")
+        if key in _NUMBERS and not (number and np.isfinite(value)):
+            raise MorphogenError(f"{where}: {key} must be a finite number, got {value!r}")
+        if key in _TABLES and not isinstance(value, dict):
+            raise MorphogenError(f"{where}: {key} must be a table {{ name = value, ... }}, "
+                                 f"got {value!r}")
+    if stage.get("kind") == "simulate" and not isinstance(stage.get("model"), str):
+        raise MorphogenError(f"{where}: a simulate stage needs model = NAME or a model file")
 
 
 def build_mesh(spec: Mapping[str, Any], base: Path = Path(".")) -> Mesh:
@@ -182,37 +218,87 @@ def run_pipeline(
     from morphogen.domains.ply import save_ply
 
     spec = load_pipeline(pipeline) if isinstance(pipeline, str | Path) else pipeline
-    out_dir = ensure_writable_dir(out)
-    mesh = build_mesh(spec["mesh"], Path(spec.get("base", ".")))
-    record: dict[str, Any] = {"mesh": {"vertices": mesh.n_vertices, "faces": mesh.n_faces,
+    for i, stage in enumerate(spec["stage"], 1):
+        check_stage_values(stage, f"stage {i} ({stage.get('kind')})")
+    out_path = check_out_name(out)
+    if out_path.exists() and not out_path.is_dir():
+        raise MorphogenError(f"output {out_path} exists and is not a directory; choose another "
+                             "--out")
+    mesh = build_mesh(spec["mesh"], Path(spec.get("base", ".")))  # before creating anything
+    done = _finished_stages(out_path) if resume else set()
+    existed = out_path.exists()
+    out_dir = ensure_writable_dir(out_path)
+    record: dict[str, Any] = {"status": "partial",
+                              "mesh": {"vertices": mesh.n_vertices, "faces": mesh.n_faces,
                                        **{k: v for k, v in spec["mesh"].items()}}, "stages": []}
     colours = None
+    made: set[str] = set()
     count = len(spec["stage"])
     for i, stage in enumerate(spec["stage"], 1):
         share = None if report is None else (lambda f, k=i: report(k, count, f))
         if share is not None:
             share(0.0)
         name = stage.get("name", stage["kind"])
-        stage_dir = ensure_writable_dir(out_dir / f"{i:02d}-{_slug(name)}")
+        stage_dir = out_dir / f"{i:02d}-{_slug(name)}"
         started = time.perf_counter()
-        cached = _cached(stage_dir, stage) if resume else None
+        cached = _cached(stage_dir, stage) if stage_dir.name in done else None
         info: dict[str, Any] = {"name": name, "kind": stage["kind"], "dir": stage_dir.name}
         if cached is not None:
             fields, info["resumed"] = cached, True
         else:
-            fields, extra, colours = _run_stage(stage, mesh, spec, stage_dir, progress,
-                                                pictures, share)
+            fresh = not stage_dir.exists()
+            ensure_writable_dir(stage_dir)
+            try:
+                fields, extra, colours = _run_stage(stage, mesh, spec, stage_dir, progress,
+                                                    pictures, share, made)
+            except BaseException as exc:
+                _mark_partial(out_dir, stage_dir, fresh, not existed, record, i, exc)
+                raise
             info.update(extra)
             write_npz(stage_dir / "fields.npz", fields)
             write_json(stage_dir / "stage.json", stage)
         mesh = mesh.with_fields(**fields)
+        made.update(fields)
         info.update(fields=sorted(fields), seconds=round(time.perf_counter() - started, 3))
         record["stages"].append(info)
+        write_json(out_dir / "pipeline.json", record)  # the stages finished so far
         if share is not None:
             share(1.0)
     save_ply(out_dir / "final.ply", mesh, colours=colours)
-    write_json(out_dir / "pipeline.json", record)
+    write_json(out_dir / "pipeline.json", {**record, "status": "done"})
     return mesh
+
+
+def _finished_stages(out: Path) -> set[str]:
+    """The stage folders an earlier run in ``out`` finished, by its ``pipeline.json`` (a run
+    that stopped part-way records ``"status": "partial"`` and the stages it finished); a
+    folder without that record has none to reuse."""
+    try:
+        record = json.loads(read_text(out / "pipeline.json", "pipeline record", 2**20))
+        return {str(s["dir"]) for s in record["stages"] if not s.get("failed")}
+    except (MorphogenError, ValueError, KeyError, TypeError, AttributeError):
+        return set()
+
+
+def _mark_partial(out_dir: Path, stage_dir: Path, fresh: bool, made_out: bool,
+                  record: dict[str, Any], index: int, exc: BaseException) -> None:
+    """After stage ``index`` failed: remove its folder if this run made it, and record the run
+    as partial (the stages finished, the one that failed) in ``pipeline.json``, so the
+    outputs left are marked and ``--resume`` knows what it can reuse. A run in a new folder
+    that failed in its first stage leaves nothing."""
+    import shutil
+
+    if fresh:
+        shutil.rmtree(stage_dir, ignore_errors=True)
+    if not record["stages"] and made_out:
+        try:
+            out_dir.rmdir()
+        except OSError:
+            pass
+        return
+    reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    write_json(out_dir / "pipeline.json",
+               {**record, "failed": {"stage": index, "dir": stage_dir.name, "error": reason}})
 
 
 def _slug(name: str) -> str:
@@ -232,7 +318,7 @@ def _cached(stage_dir: Path, stage: Mapping[str, Any]) -> dict[str, np.ndarray] 
 
 
 def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pictures: bool,
-               share: Callable[[float], None] | None = None):
+               share: Callable[[float], None] | None = None, made: set[str] | None = None):
     """Returns ``(new fields, record entries, vertex colours or None)``; ``share(f)`` after
     each chunk of a simulation (the share of its steps done)."""
     from morphogen.flowers import positional_information, seed_field
@@ -269,7 +355,7 @@ def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, picture
         return {stage.get("field", "points"): field}, {}, None
     if kind == "veins":
         return _veins_stage(stage, mesh, spec, stage_dir, view, pictures)
-    return _simulate_stage(stage, mesh, spec, stage_dir, progress, pictures, share)
+    return _simulate_stage(stage, mesh, spec, stage_dir, progress, pictures, share, made)
 
 
 def grow_veins(stage: Mapping[str, Any], mesh: Mesh, seed: int = 0):
@@ -331,8 +417,12 @@ def _veins_stage(stage, mesh: Mesh, spec, stage_dir: Path, view: Any, pictures: 
 
 
 def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pictures: bool,
-                    share: Callable[[float], None] | None = None):
-    """One simulation: model, parameters and initial values from fields, then outputs."""
+                    share: Callable[[float], None] | None = None,
+                    made: set[str] | None = None):
+    """One simulation: model, parameters and initial values from fields, then outputs. Fields
+    named like a species or parameter are applied implicitly only when an earlier stage made
+    them (``made``; ``None``: every field); a field of the ``[mesh]`` file is used only where
+    ``params`` or ``initial`` name it."""
     from morphogen.domains.ply import apply_fields
     from morphogen.engine.initial import make_initial
     from morphogen.engine.simulate import simulate
@@ -354,7 +444,7 @@ def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pi
     seed = int(stage.get("seed", spec.get("seed", 0)))
     init = stage.get("init", model.init)
     u0 = make_initial(init, model, domain, values, seed=seed, **stage.get("init_options", {}))
-    u0, values = apply_fields(model, domain, u0, values)
+    u0, values = apply_fields(model, domain, u0, values, names=made)
     for key, text in stage.get("params", {}).items():
         if key not in model.params:
             raise MorphogenError(f"unknown parameter {key!r} for model {model.name}")

@@ -18,6 +18,7 @@ from scipy import ndimage
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Array
 from morphogen.render.images import to_uint8 as to_uint8
+from morphogen.util.io import check_image
 
 SYNTHETIC = ("stripes", "dots", "checker", "lined", "blotchy", "lizards", "labyrinth")
 """Names of the synthetic textures :func:`synthetic_texture` makes (the targets of the shipped
@@ -44,10 +45,13 @@ def load_texture(path: str | Path, size: int | None = None) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise MorphogenError(f"target image {path} does not exist")
+    check_image(path, "target image")  # header and size, before decoding
     try:
         img = np.asarray(iio.imread(path))
-    except Exception as exc:  # imageio raises many types for unreadable files
-        raise MorphogenError(f"cannot read target image {path}: {exc}") from None
+    except Exception:  # imageio raises many types (and multi-line messages) for bad files
+        raise MorphogenError(
+            f"cannot read target image {path}: not a PNG, JPEG, ... that can be decoded"
+        ) from None
     return prepare_texture(img, size)
 
 

@@ -142,6 +142,23 @@ class TrainConfig:
                 f"invalid training setting {bad[0]}: size >= 16, pool >= batch >= 1, "
                 "1 <= min_steps <= max_steps, positive rates and counts"
             )
+        self.check_memory()
+
+    def check_memory(self) -> None:
+        """Refuse settings whose arrays would not fit (:func:`~morphogen.util.guard.check_numbers`):
+        the pool, and per sample of a batch the ``max_steps`` states and hidden activations that
+        back-propagation keeps, plus the weights."""
+        from morphogen.util.guard import WORKING_COPIES, check_numbers
+
+        cells = self.size * self.size
+        per_step = self.channels + self.hidden
+        numbers = (self.pool_size * self.channels * cells
+                   + self.batch_size * cells * (per_step * self.max_steps
+                                                + self.channels * WORKING_COPIES)
+                   + 4 * self.channels * self.hidden * 9)
+        check_numbers(numbers, f"training ({self.size}x{self.size}, {self.channels} channels, "
+                      f"{self.hidden} hidden, pool {self.pool_size})",
+                      "use a smaller --size, fewer --channels or --hidden")
 
     @property
     def neural(self) -> NeuralConfig:

@@ -27,6 +27,7 @@ from morphogen.patterns.classify import classify
 from morphogen.patterns.descriptors import NAMES, describe_batch
 from morphogen.patterns.watch import simulate_watched
 from morphogen.solvers.auto import population_scheme
+from morphogen.solvers.stability import GRID_SCALE_RATIO, grid_scale, observed_scale
 from morphogen.solvers.step import batch_params, check_stability
 from morphogen.util.io import write_atomic
 
@@ -67,6 +68,11 @@ class Atlas:
         wall_time: seconds for the batched simulation.
         snapshots: with ``watch``, the last states, shape ``(NY, NX, T + 1, S, *spatial)``.
         scheme: the scheme that ran (``auto`` resolved).
+        unstable: runs that stayed finite but ended in a grid-scale (checkerboard) mode, the
+            mark of a step too large for that member (:func:`checkerboard_members`), shape
+            ``(NY, NX)``; with the runs that blew up (``~valid``) they are numerical
+            artefacts, not patterns (:func:`instability_report`).
+        dt: the time step of the run.
     """
 
     states: np.ndarray
@@ -76,6 +82,8 @@ class Atlas:
     wall_time: float
     snapshots: np.ndarray | None = None
     scheme: str = "euler"
+    unstable: np.ndarray | None = None
+    dt: float = 0.0
 
 
 def compute_atlas(
@@ -141,7 +149,45 @@ def compute_atlas(
         wall_time=sol.wall_time,
         snapshots=snaps,
         scheme=scheme,
+        unstable=(checkerboard_members(sol.state, u0, model, batch) & sol.valid).reshape(shape),
+        dt=float(dt),
     )
+
+
+def checkerboard_members(state: np.ndarray, u0: np.ndarray, model: Model,
+                         params: dict[str, Any]) -> np.ndarray:
+    """Members of a batch ``(B, S, *spatial)`` whose final state is dominated by the grid-scale
+    mode in some species, shape ``(B,)``.
+
+    The test of the engine's divergence monitor
+    (:func:`morphogen.solvers.stability.divergence_flags`) on the last state alone: the
+    checkerboard component carries more than ``GRID_SCALE_RATIO`` of a species' deviation and
+    is above round-off (``1e-4`` of the starting scale). An explicit step beyond a member's
+    limit leaves exactly this, bounded or still growing, while a pattern's wavelength spans
+    several cells; the monitor only stops a run whose checkerboard keeps growing, so one that
+    saturates needs this check.
+    """
+    state = np.asarray(state)
+    if state.ndim < 4:  # a 1D grid has no checkerboard in this sense; meshes are not batched
+        return np.zeros(len(state), bool)
+    g, dev = (np.asarray(a, np.float64) for a in grid_scale(np.nan_to_num(state), True))
+    scale = observed_scale(u0, model, params, True)
+    return ((g > GRID_SCALE_RATIO * dev) & (g > 1e-4 * scale)).any(axis=1)
+
+
+def instability_report(atlas: Atlas, shown: int = 6) -> str | None:
+    """One line naming the tiles that blew up or ended in a checkerboard (numerically unstable
+    at the atlas's ``dt``), or ``None`` when there are none."""
+    bad = ~atlas.valid | (atlas.unstable if atlas.unstable is not None else False)
+    if not bad.any():
+        return None
+    where = [f"{atlas.x.name}={atlas.x.values[j]:.4g} {atlas.y.name}={atlas.y.values[i]:.4g}"
+             for i, j in zip(*np.nonzero(bad), strict=True)]
+    more = f" and {len(where) - shown} more" if len(where) > shown else ""
+    return (f"{int(bad.sum())} of {bad.size} tiles were numerically unstable at dt={atlas.dt:g} "
+            f"(they blew up or ended in a grid-scale checkerboard, which is not a pattern): "
+            f"{', '.join(where[:shown])}{more}; they are labelled blown-up; run again with a "
+            f"smaller --dt (e.g. {atlas.dt / 2:g}) to see what those parameters do")
 
 
 def classify_atlas(atlas: Atlas, species: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -158,7 +204,8 @@ def classify_atlas(atlas: Atlas, species: int) -> tuple[np.ndarray, dict[str, np
         raise MorphogenError("pattern families are defined on 2D grids; this atlas is not 2D")
     ny, nx = snaps.shape[:2]
     desc = describe_batch(snaps.reshape(ny * nx, *snaps.shape[2:]))
-    labels = classify(desc, atlas.valid.reshape(-1))
+    sound = atlas.valid if atlas.unstable is None else atlas.valid & ~atlas.unstable
+    labels = classify(desc, sound.reshape(-1))
     return labels.reshape(ny, nx), {k: np.asarray(v).reshape(ny, nx) for k, v in desc.items()}
 
 

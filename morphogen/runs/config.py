@@ -18,6 +18,7 @@ from typing import Any
 from morphogen.errors import MorphogenError
 from morphogen.runs.schema import validate_config
 from morphogen.runs.settings import REQUIRED, SETTINGS, Setting, default
+from morphogen.util.io import read_bytes
 
 FORMAT = "morphogen-run/1"
 SNAPSHOTS = 241
@@ -67,9 +68,9 @@ RunConfig = make_dataclass(
 def load_run_file(path: str | Path) -> RunConfig:
     """Read ``run.json`` (as written by :func:`execute`) into a :class:`RunConfig`."""
     try:
-        data = json.loads(Path(path).read_bytes().decode("utf-8-sig"))
-    except OSError as exc:
-        raise MorphogenError(f"cannot read run file {path}: {exc.strerror}") from None
+        if not Path(path).exists():
+            raise MorphogenError(f"cannot read run file {path}: No such file or directory")
+        data = json.loads(read_bytes(path, "run file").decode("utf-8-sig"))
     except UnicodeDecodeError:
         raise MorphogenError(f"run file {path} is not UTF-8 text (is it a run.json?)") from None
     except RecursionError:

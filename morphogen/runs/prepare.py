@@ -115,11 +115,38 @@ def check_diffusion(model: Model, domain: Any, params: dict[str, np.ndarray]) ->
 
 def _mesh_fields(config: RunConfig, model: Model, mesh: Any, u0: np.ndarray,
                  values: dict[str, Any]) -> tuple[np.ndarray, dict[str, Any]]:
-    """PLY vertex properties named like a species give its initial value (unless ``--init`` is
-    given); those named like a parameter give a per-vertex field (unless ``-p`` sets it)."""
-    from morphogen.domains.ply import apply_fields
+    """PLY vertex properties named like a species give its initial value, those named like a
+    parameter its per-vertex values, only when asked for (``--mesh-field NAME``, or ``all``):
+    a mesh's radius field ``r`` must not silently become a model's rate ``r``. A field named
+    like one that is neither asked for, nor overridden (``-p NAME=...``, ``--init``), nor
+    ignored (``--mesh-field none``) is a one-line error naming both and the options."""
+    from morphogen.domains.ply import apply_fields, field_clashes
 
-    mesh_u0, mesh_values = apply_fields(model, mesh, u0, values)
+    chosen = set(config.mesh_fields)
+    clashes = field_clashes(model, mesh)
+    unknown = sorted(chosen - {"all", "none"} - set(clashes))
+    if unknown:
+        named = ", ".join(clashes) or "none"
+        raise MorphogenError(
+            f"--mesh-field {unknown[0]}: mesh {config.mesh} has no field {unknown[0]!r} named "
+            f"like a species or parameter of model {model.name} (such fields: {named})"
+        )
+    if {"all", "none"} <= chosen:
+        raise MorphogenError("--mesh-field all and --mesh-field none contradict each other")
+    use = set(clashes) if "all" in chosen else chosen & set(clashes)
+    overridden = set(config.params) | (set(model.species) if config.init is not None else set())
+    pending = [n for n in clashes if n not in use | overridden]
+    if pending and "none" not in chosen:
+        name = pending[0]
+        species = name in model.species
+        role, other = (("species", "--init KIND") if species
+                       else ("parameter", f"-p {name}=VALUE"))
+        raise MorphogenError(
+            f"mesh {config.mesh} has a field {name!r} and model {model.name} a {role} "
+            f"{name!r}: add --mesh-field {name} to use the field as the {role}'s "
+            f"{'start' if species else 'values'}, or --mesh-field none (or {other}) to ignore it"
+        )
+    mesh_u0, mesh_values = apply_fields(model, mesh, u0, values, names=use)
     mesh_values.update({k: values[k] for k in config.params})
     return (u0 if config.init is not None else mesh_u0), mesh_values
 

@@ -142,6 +142,11 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("mesh", "str | None", "StrictStr | None",
             help="simulate on a triangle mesh instead", flag="--mesh", metavar="FILE.ply",
             commands=("simulate",)),
+    Setting("mesh_fields", "list[str]", "list[StrictStr]", [],
+            help="use the mesh's field NAME as the parameter or species of that name "
+            "(repeatable; 'all' for every such field, 'none' to ignore them); a mesh field "
+            "named like one is otherwise an error", flag="--mesh-field", metavar="NAME",
+            arg="append", commands=("simulate",)),
     Setting("dx", "float", "Positive", 1.0, help="cell spacing", flag="--dx",
             argtype="positive_float", commands=("simulate", "evolve", "atlas"), web="number",
             lo=1e-6, hi=1e6),

@@ -215,7 +215,10 @@ class Archive:
             FROM runs r LEFT JOIN generations g ON g.run_id = r.id
             GROUP BY r.id ORDER BY r.created DESC"""
         with self._db() as db:
-            return [dict(row) for row in db.execute(query)]
+            rows = [dict(row) for row in db.execute(query)]
+        for row in rows:
+            _check_numbers(row, ("done",), ("best",), self.path, row.get("id"))
+        return rows
 
     def run(self, ref: str | os.PathLike) -> dict[str, Any]:
         """A run by id, or by its directory (as given to ``--out``).
@@ -241,7 +244,11 @@ class Archive:
         query = ("SELECT gen, best, mean, best_so_far, valid, seconds, sheet FROM generations "
                  "WHERE run_id=? ORDER BY gen")
         with self._db() as db:
-            return [dict(row) for row in db.execute(query, (run_id,))]
+            rows = [dict(row) for row in db.execute(query, (run_id,))]
+        for row in rows:
+            _check_numbers(row, ("gen", "valid", "seconds"), ("best", "mean", "best_so_far"),
+                           self.path, run_id)
+        return rows
 
     def last_state(self, run_id: str) -> tuple[int, dict[str, np.ndarray]] | None:
         """``(gen, strategy state arrays)`` of the last recorded generation, or ``None``."""
@@ -267,7 +274,8 @@ class Archive:
         with self._db() as db:
             rows = [dict(row) for row in db.execute(query + " ORDER BY gen, idx", args)]
         for row in rows:
-            row["genome"] = json.loads(row["genome"])
+            _check_numbers(row, ("gen", "idx"), ("fitness",), self.path, run_id)
+            row["genome"] = _genome(row["genome"], self.path, run_id)
         return rows
 
     def best(self, run_id: str, k: int = 1) -> list[dict[str, Any]]:
@@ -281,11 +289,44 @@ class Archive:
                     continue
                 seen.add(row["genome"])
                 item = dict(row)
-                item["genome"] = json.loads(item["genome"])
+                _check_numbers(item, ("gen", "idx", "fitness"), (), self.path, run_id)
+                item["genome"] = _genome(item["genome"], self.path, run_id)
                 out.append(item)
                 if len(out) == k:
                     break
         return out
+
+
+def _damaged_row(path: Path, run_id: Any, what: str) -> MorphogenError:
+    return MorphogenError(
+        f"run {run_id} in the archive {path} has a damaged row ({what}); it cannot be resumed "
+        "or shown"
+    )
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _check_numbers(row: dict[str, Any], required: tuple[str, ...], optional: tuple[str, ...],
+                   path: Path, run_id: Any) -> None:
+    """Refuse a row whose ``required`` columns are not numbers, or whose ``optional`` ones
+    are neither numbers nor NULL (SQLite stores any type in any column)."""
+    for key in (*required, *optional):
+        value = row.get(key)
+        if not (_is_number(value) or (value is None and key in optional)):
+            raise _damaged_row(path, run_id, f"{key} {str(value)[:40]!r} is not a number")
+
+
+def _genome(text: Any, path: Path, run_id: Any) -> list[float]:
+    """A stored genome: a JSON list of numbers."""
+    try:
+        genome = json.loads(text)
+    except (TypeError, ValueError, RecursionError):
+        genome = None
+    if not isinstance(genome, list) or not all(_is_number(x) for x in genome):
+        raise _damaged_row(path, run_id, f"genome {str(text)[:40]!r} is not a list of numbers")
+    return genome
 
 
 def _real(x: Any) -> float | None:

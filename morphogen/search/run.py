@@ -34,7 +34,7 @@ from morphogen.search.ga import GeneticAlgorithm
 from morphogen.search.gradient import GradientAscent, require_target
 from morphogen.search.mapelites import MapElites
 from morphogen.search.strategy import Strategy, state_from_arrays, state_to_arrays
-from morphogen.util.io import ensure_writable_dir, write_json
+from morphogen.util.io import ensure_writable_dir, read_text, write_json
 from morphogen.util.progress import ProgressBar
 
 STRATEGIES: dict[str, type[Strategy]] = {
@@ -249,9 +249,9 @@ def resolve_run(ref: str, archive_path: str | None = None) -> tuple[str, Archive
     config_file = Path(ref) / CONFIG
     if config_file.is_file():
         try:
-            config = json.loads(config_file.read_text())
-            run_id, path = config["id"], archive_path or config["archive"]
-        except (OSError, ValueError, KeyError):
+            config = json.loads(read_text(config_file, "run configuration"))
+            run_id, path = str(config["id"]), archive_path or str(config["archive"])
+        except (ValueError, KeyError, TypeError, RecursionError):
             raise MorphogenError(f"{config_file} is not a run configuration") from None
         archive = Archive(path, create=False)
         recorded = Path(archive.run(run_id)["dir"])

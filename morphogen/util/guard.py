@@ -110,3 +110,24 @@ def check_run(cells: int, species: int, steps: float, *, snapshots: int = 1, bat
     check_memory(cells, species, snapshots=snapshots, batch=batch, itemsize=itemsize,
                  limits=limits)
     return check_steps(steps, cells, species, batch=batch, limits=limits)
+
+
+def check_numbers(numbers: float, what: str, hint: str, *, itemsize: int = 4,
+                  limits: Limits = LIMITS) -> int:
+    """Refuse ``what`` (e.g. ``"training"``) if the ``numbers`` it holds at once, of
+    ``itemsize`` bytes each, exceed the memory limit; ``hint`` says what to reduce. For the
+    commands whose arrays are not one run's state (training pools, network populations)."""
+    estimate = int(numbers) * itemsize
+    if estimate > limits.memory_bytes:
+        raise MorphogenError(
+            f"{what} needs about {_gib(estimate)} of memory, more than the limit of "
+            f"{_gib(limits.memory_bytes)}; {hint}"
+        )
+    return estimate
+
+
+def check_count(value: int, name: str, low: int, high: int) -> int:
+    """Refuse a count option outside ``[low, high]`` with a one-line error naming ``name``."""
+    if not low <= value <= high:
+        raise MorphogenError(f"{name} must be between {low:,} and {high:,}, got {value:,}")
+    return value

@@ -7,8 +7,10 @@ place (``os.replace``), so a crash leaves either the old file or the new one.
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
+import stat
 import tempfile
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
@@ -19,23 +21,152 @@ import numpy as np
 
 from morphogen.errors import MorphogenError
 
+MAX_INPUT_BYTES = 64 * 2**20
+"""Largest text input read whole (a model, run, network or settings file): 64 MiB."""
 
-def read_text(path: str | Path, what: str) -> str:
-    """A UTF-8 text file's contents; a missing, unreadable or non-UTF-8 file is a one-line
-    :class:`MorphogenError` naming ``what`` it should have been (e.g. ``"model file"``)."""
+MAX_IMAGE_PIXELS = 40_000_000
+"""Largest image accepted as input (width x height from its header, checked before decoding)."""
+
+
+def check_input_file(path: str | Path, what: str, limit: float = MAX_INPUT_BYTES) -> Path:
+    """Check, reading nothing, that ``path`` is a regular file of at most ``limit`` bytes: a
+    directory, a device (``/dev/zero``, ``/dev/urandom``), a FIFO or a socket would block or
+    never end, and is refused with a one-line :class:`MorphogenError` naming ``what``."""
+    p = Path(path)
     try:
-        return Path(path).read_text(encoding="utf-8")
+        info = p.stat()
     except FileNotFoundError:
         raise MorphogenError(f"{what} {path} not found") from None
-    except UnicodeDecodeError:
-        raise MorphogenError(f"{what} {path} is not UTF-8 text") from None
     except OSError as exc:
         raise MorphogenError(f"cannot read {what} {path}: {exc.strerror}") from None
+    if stat.S_ISDIR(info.st_mode):
+        raise MorphogenError(f"{what} {path} is a directory, not a file")
+    if not stat.S_ISREG(info.st_mode):
+        raise MorphogenError(
+            f"{what} {path} is not a regular file (a device, pipe or socket); give a file"
+        )
+    if info.st_size > limit:
+        raise MorphogenError(
+            f"{what} {path} is {info.st_size:,} bytes, more than the limit of {int(limit):,}"
+        )
+    return p
+
+
+def read_bytes(path: str | Path, what: str, limit: int = MAX_INPUT_BYTES) -> bytes:
+    """A regular file's bytes, at most ``limit`` of them (:func:`check_input_file`; a file
+    that grows past the limit while read is refused too)."""
+    p = check_input_file(path, what, limit)
+    try:
+        with open(p, "rb") as fh:
+            data = fh.read(limit + 1)
+    except OSError as exc:
+        raise MorphogenError(f"cannot read {what} {path}: {exc.strerror}") from None
+    if len(data) > limit:
+        raise MorphogenError(f"{what} {path} is more than the limit of {limit:,} bytes")
+    return data
+
+
+def read_text(path: str | Path, what: str, limit: int = MAX_INPUT_BYTES) -> str:
+    """A UTF-8 text file's contents; a missing, unreadable, non-regular, oversized or
+    non-UTF-8 file is a one-line :class:`MorphogenError` naming ``what`` it should have been
+    (e.g. ``"model file"``)."""
+    try:
+        return read_bytes(path, what, limit).decode("utf-8")
+    except UnicodeDecodeError:
+        raise MorphogenError(f"{what} {path} is not UTF-8 text") from None
+
+
+def load_npy(path: str | Path, what: str, max_elements: int) -> np.ndarray:
+    """A ``numpy.save`` file whose header is checked before its data is read: no pickles, a
+    numeric type, and at most ``max_elements`` numbers (a 100-byte file announcing 10¹² is
+    refused without allocating)."""
+    p = check_input_file(path, what, limit=16 * max_elements + 65536)
+    try:
+        with open(p, "rb") as fh:
+            version = np.lib.format.read_magic(fh)
+            read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                           else np.lib.format.read_array_header_2_0)
+            shape, _, dtype = read_header(fh)
+            if dtype.hasobject or dtype.kind not in "biuf":
+                raise MorphogenError(f"{what} {path} holds {dtype} values, not numbers")
+            if math.prod(shape) > max_elements:
+                raise MorphogenError(
+                    f"{what} {path} announces shape {shape}, more than the "
+                    f"{max_elements:,} numbers the domain holds"
+                )
+            fh.seek(0)
+            return np.load(fh, allow_pickle=False)
+    except MorphogenError:
+        raise
+    except (OSError, ValueError, EOFError, TypeError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise MorphogenError(f"cannot read {what} {path}: {reason}") from None
+
+
+def check_image(path: str | Path, what: str, max_pixels: int = MAX_IMAGE_PIXELS) -> Path:
+    """Check an image file by its header before any decoder allocates for it: a regular file
+    that Pillow recognises, of at most ``max_pixels`` pixels (a decompression bomb is refused
+    before it is decoded)."""
+    import warnings
+
+    from PIL import Image
+
+    p = check_input_file(path, what, limit=float("inf"))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            with Image.open(p) as img:
+                w, h = img.size
+    except (Image.DecompressionBombError, Image.DecompressionBombWarning):
+        raise MorphogenError(
+            f"{what} {path} claims more pixels than can be decoded safely (over "
+            f"{max_pixels // 1_000_000} million); crop or reduce it first") from None
+    except Exception:  # any decoder failure is the same user error: not a readable picture
+        raise MorphogenError(
+            f"{what} {path} is not an image that can be read (PNG, JPEG, ...)"
+        ) from None
+    if w * h > max_pixels:
+        raise MorphogenError(
+            f"{what} {path} claims {w}x{h} pixels, over the limit of "
+            f"{max_pixels // 1_000_000} million; crop or reduce it first"
+        )
+    return p
+
+
+NAME_MAX = 255
+"""Longest file name (bytes) of the usual file systems."""
+STAGING_EXTRA = 16
+"""Bytes a hidden staging name adds to an output's name (``.NAME.XXXXXXXX.new``)."""
+
+
+def check_out_name(path: str | Path) -> Path:
+    """Refuse an output path with a name too long to be staged next to it (the file system's
+    limit minus :data:`STAGING_EXTRA`), before anything is created."""
+    p = Path(path)
+    for part in p.parts:
+        size = len(os.fsencode(part))
+        if size > NAME_MAX - STAGING_EXTRA:
+            raise MorphogenError(
+                f"output name {part[:40]}... is {size} bytes long; names of outputs are limited "
+                f"to {NAME_MAX - STAGING_EXTRA} bytes (the file system allows {NAME_MAX}); "
+                "choose a shorter --out"
+            )
+    return p
+
+
+def _follow(p: Path) -> Path:
+    """``p``, or where it points if it is a symbolic link (an output named by a link is
+    written to the link's target, never over the link); a broken link is refused."""
+    if not p.is_symlink():
+        return p
+    if not p.exists():
+        raise MorphogenError(f"output {p} is a broken symbolic link; choose another --out")
+    return Path(os.path.realpath(p))
 
 
 def ensure_writable_dir(path: str | Path) -> Path:
     """Create ``path`` if needed and check it is a writable directory (clear error if not)."""
-    p = Path(path)
+    p = _follow(check_out_name(path))
     try:
         p.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -45,11 +176,30 @@ def ensure_writable_dir(path: str | Path) -> Path:
     return p
 
 
+def check_writable_dir(path: str | Path) -> Path:
+    """Check, creating nothing, that :func:`ensure_writable_dir` can make ``path`` later: it is
+    a writable directory, or absent with a writable nearest existing parent. A command calls
+    this with its input checks and creates the folder only once its work is done or certain."""
+    p = _follow(check_out_name(path))
+    if p.exists():
+        if not p.is_dir():
+            raise MorphogenError(f"output {p} exists and is not a directory; choose another --out")
+        if not os.access(p, os.W_OK | os.X_OK):
+            raise MorphogenError(f"output directory {p} is not writable; choose another with "
+                                 "--out")
+        return p
+    parent = next((a for a in p.absolute().parents if a.exists()), Path("/"))
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise MorphogenError(f"cannot create output directory {p}: {parent} is not writable")
+    return p
+
+
 def check_run_dir(path: str | Path) -> Path:
     """Check, creating nothing, that a run directory can be written at ``path``: it is absent
     (its nearest existing parent writable), empty, or an earlier run (it has ``run.json``),
-    which :func:`staged_dir` will replace whole."""
-    p = Path(path)
+    which :func:`staged_dir` will replace whole. A path that is a symbolic link stands for its
+    target, which is returned."""
+    p = _follow(check_out_name(path))
     if p.exists():
         if not p.is_dir():
             raise MorphogenError(f"output {p} exists and is not a directory; choose another --out")
@@ -106,8 +256,11 @@ def _remove_made(made: list[Path]) -> None:
 def atomic_path(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
     """Yield a temporary path next to ``path``; on success give it the umask's permissions and
     rename it to ``path``, on failure delete it. For writers that need a file name (ffmpeg)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=suffix)
+    path = _follow(check_out_name(path))
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=suffix)
+    except OSError as exc:
+        raise MorphogenError(f"cannot write {path}: {exc.strerror}") from None
     os.close(fd)
     try:
         yield Path(tmp)

@@ -29,6 +29,8 @@ from morphogen.web import (
     case_study_routes,
     evolve_routes,
     explore,
+    export_routes,
+    guards,
     info,
     jobs,
     mesh_routes,
@@ -57,6 +59,7 @@ def create_app(
     allowed_hosts: Sequence[str] = LOCAL_HOSTS,
     warm_up: bool = False,
     examples: str | Path | None = None,
+    token: str | None = None,
 ) -> FastAPI:
     """Build the app.
 
@@ -70,6 +73,8 @@ def create_app(
             start (:mod:`morphogen.web.warmup`), so a model switch need not wait for them.
         examples: the folder whose ``flowers/*.toml`` the Mesh page offers as case studies
             (:mod:`morphogen.web.case_study_routes`; the repository's ``examples/`` when ``None``).
+        token: an access token every request must carry (:class:`morphogen.web.guards.
+            AccessToken`; ``morphogen serve --allow-remote``); ``None``: none asked.
     """
     @asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -117,7 +122,7 @@ def create_app(
         return JSONResponse({"error": str(exc)}, status_code=400)
 
     for module in (info, explore, atlas_routes, jobs, evolve_routes, runs_routes, case_study_routes,
-                   mesh_routes):
+                   mesh_routes, export_routes):
         app.include_router(module.router)
 
     @app.get("/", include_in_schema=False)
@@ -125,4 +130,5 @@ def create_app(
         return FileResponse(STATIC / "index.html")
 
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
+    guards.install(app, lim, token)
     return app

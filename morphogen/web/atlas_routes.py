@@ -31,7 +31,14 @@ from fastapi import APIRouter, Request
 from morphogen.domains.grid import Grid
 from morphogen.errors import MorphogenError
 from morphogen.patterns.classify import COLOURS, FAMILIES, GRID_ENERGY
-from morphogen.runs.atlas import Atlas, Axis, classify_atlas, compute_atlas, write_families
+from morphogen.runs.atlas import (
+    Atlas,
+    Axis,
+    classify_atlas,
+    compute_atlas,
+    instability_report,
+    write_families,
+)
 from morphogen.web import batch
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.jobs import Job, Progress
@@ -135,7 +142,8 @@ async def start(request: Request, body: JSONBody):
             grid_scale = energy > GRID_ENERGY
         else:
             grid_scale = _grid_scale(states[:, shown])
-        valid = atlas.valid[::-1] & ~grid_scale.reshape(y["n"], x["n"])
+        grid_scale = grid_scale.reshape(y["n"], x["n"]) | atlas.unstable[::-1]
+        valid = atlas.valid[::-1] & ~grid_scale
         image = batch.mosaic(states, model, run["species"], cmap, (y["n"], x["n"]), PAD,
                              valid=valid.reshape(-1),
                              labels=None if named is None else np.ravel(named["labels"]),
@@ -146,6 +154,7 @@ async def start(request: Request, body: JSONBody):
             "image": f"/api/jobs/{job.id}/files/atlas.png",
             "x": x, "y": y, "tile": run["tile"], "pad": PAD,
             "valid": valid.tolist(), "grid_scale": int(grid_scale.sum()),
+            "unstable": instability_report(atlas),
             "wall_time_s": round(atlas.wall_time, 3),
             "model": spec, "model_name": model.name, "params": base,
             "dt": run["dt"], "steps": run["steps"], "init": run["init"], "seed": run["seed"],

@@ -25,6 +25,17 @@ from morphogen.errors import MorphogenError
 MAX_IMAGE_BYTES = 4 * 1024 * 1024
 """Largest accepted PNG (decoded from base64)."""
 
+MAX_IMAGE_PIXELS = 4096 * 4096
+"""Most pixels a PNG may announce in its header (a grid has at most 512 cells a side): a small
+file that decompresses to a huge picture is refused before it is decoded."""
+
+
+def png_size(data: bytes) -> tuple[int, int]:
+    """``(width, height)`` from a PNG's header (its first chunk, ``IHDR``), without decoding."""
+    if len(data) < 24 or data[12:16] != b"IHDR":
+        raise MorphogenError("the PNG could not be read; is the file complete?")
+    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+
 
 def decode_png(text: object) -> np.ndarray:
     """Base64 PNG text -> grey levels ``(H, W)`` float32 in ``[0, 1]``."""
@@ -40,6 +51,10 @@ def decode_png(text: object) -> np.ndarray:
         raise MorphogenError(f"the image is over {MAX_IMAGE_BYTES // 2**20} MiB; use a smaller one")
     if not data.startswith(b"\x89PNG"):
         raise MorphogenError("only PNG images are accepted; save the picture as PNG")
+    width, height = png_size(data)
+    if width * height > MAX_IMAGE_PIXELS:
+        raise MorphogenError(f"the PNG is {width} x {height} pixels, more than the "
+                             f"{MAX_IMAGE_PIXELS / 1e6:.3g} million accepted; reduce it first")
     try:
         img = np.asarray(iio.imread(data, extension=".png"))
     except Exception:  # a malformed file must come back as one line, whatever the decoder says

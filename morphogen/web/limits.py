@@ -46,6 +46,14 @@ class Limits:
         case_study_timeout_s: wall-clock limit of a flower case study (a shipped pipeline;
             the largest take about 15 minutes on 2 cores).
         max_jobs: background jobs kept (finished ones are dropped oldest first).
+        max_body_bytes: a request's body (a PNG of 4 MiB is 5.4 MiB as base64 JSON); larger
+            is refused with 413 before it is read (:mod:`morphogen.web.guards`).
+        max_upload_bytes: the body of a checkpoint upload (64 MiB of ``.npz`` as base64).
+        body_timeout_s: time for a request's body to arrive after its headers (408 after).
+        header_timeout_s: time for a request's headers to arrive; the connection is closed
+            after it.
+        keep_alive_s: an idle kept-alive connection is closed after this long.
+        max_ws_message_bytes: one WebSocket message (the live view sends ``next``/``show``).
     """
 
     min_size: int = 16
@@ -62,6 +70,12 @@ class Limits:
     job_timeout_s: float = 300.0
     case_study_timeout_s: float = 3600.0
     max_jobs: int = 32
+    max_body_bytes: int = 8 * 2**20
+    max_upload_bytes: int = 96 * 2**20
+    body_timeout_s: float = 60.0
+    header_timeout_s: float = 10.0
+    keep_alive_s: int = 5
+    max_ws_message_bytes: int = 64 * 1024
 
 
 def number(value: Any, name: str, lo: float | None = None, hi: float | None = None) -> float:

@@ -233,6 +233,19 @@ class LiveSim:
             self.error = None
             return len(self.undo_stack)
 
+    def load_state(self, state: np.ndarray) -> int:
+        """Replace every species' state by ``state`` ``(S, h, w)`` (a checkpoint); one undo
+        step like a stroke. Returns the strokes that can be undone."""
+        with self.lock:
+            self._touch()
+            if state.shape != tuple(self.u.shape):
+                raise MorphogenError(f"the checkpoint holds {state.shape[1:]} cells, the grid "
+                                     f"{tuple(self.u.shape[1:])}")
+            self.undo_stack = [*self.undo_stack, self.u][-UNDO_DEPTH:]
+            self.u = jnp.asarray(state, self.u.dtype)
+            self.error = None
+            return len(self.undo_stack)
+
     def undo(self) -> int:
         """Put back the state from before the last brush stroke (time and everything that grew
         since stay as they are: only the painted cells' history is replaced, as in a paint

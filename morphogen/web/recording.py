@@ -84,20 +84,29 @@ def colour_table(cmap: str) -> np.ndarray:
 
 def _ffmpeg_mp4(video: np.ndarray, fps: int) -> bytes:
     """MP4 bytes through the ffmpeg binary of ``imageio-ffmpeg`` (written to a temporary file:
-    the MP4 container needs to seek)."""
+    the MP4 container needs to seek).
+
+    ffmpeg is started by :func:`subprocess.run` without a Python ``preexec_fn`` (imageio-ffmpeg's
+    own writer passes ``os.setpgrp``, which makes the child run Python between fork and exec: in
+    this multithreaded JAX process that can deadlock, and JAX warns about ``os.fork()``);
+    ``start_new_session`` gives the same protection from Ctrl-C without it."""
+    import subprocess
     import tempfile
     from pathlib import Path
 
     import imageio_ffmpeg
 
+    h, w = video.shape[1:3]
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "recording.mp4"
-        writer = imageio_ffmpeg.write_frames(
-            str(path), (video.shape[2], video.shape[1]), fps=fps, codec="libx264",
-            pix_fmt_out="yuv420p", macro_block_size=1, ffmpeg_log_level="error",
-        )
-        writer.send(None)
-        for frame in video:
-            writer.send(np.ascontiguousarray(frame))
-        writer.close()
+        cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error",
+               "-f", "rawvideo", "-vcodec", "rawvideo", "-s", f"{w}x{h}", "-pix_fmt", "rgb24",
+               "-r", str(fps), "-i", "-", "-an", "-vcodec", "libx264", "-pix_fmt", "yuv420p",
+               "-r", str(fps), str(path)]
+        done = subprocess.run(cmd, input=np.ascontiguousarray(video, np.uint8).tobytes(),
+                              capture_output=True, start_new_session=True, timeout=300,
+                              check=False)
+        if done.returncode != 0:
+            raise MorphogenError("ffmpeg could not write the MP4: "
+                                 + done.stderr.decode(errors="replace").strip()[-200:])
         return path.read_bytes()

@@ -9,6 +9,8 @@ import { chromium } from 'playwright-core';
 import { measure, openRunFile, readoutAndUndo, rectangleImexRecording, resumeAndDelete, urlState } from './tools.mjs';
 import * as features from './features.mjs';
 import * as mapElites from './map_elites.mjs';
+import * as designer from './designer.mjs';
+import * as access from './access.mjs';
 
 const [scenario, base, out] = process.argv.slice(2);
 const ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
@@ -451,9 +453,11 @@ SCENARIOS.layout = async (page) => {
   await page.waitForFunction(() => window.morphogenExplore?.frames >= 2, null, { timeout: 60000 });
   const canvas = await page.locator('#ex-canvas').boundingBox();
   const controls = await page.locator('#page-explore .controls').boundingBox();
-  return { evolveDesktop, width, canvasWidth: canvas.width, stacked: controls.y + controls.height <= canvas.y + 1 };
+  return { evolveDesktop, width, canvasWidth: canvas.width, stacked: canvas.y + canvas.height <= controls.y + 1 };
 };
 
+for (const name of ['restart', 'refusals', 'schemes', 'checkpoint']) SCENARIOS[name] = (page) => designer[name](page, base, out);
+for (const name of ['axe', 'keyboard', 'phone']) SCENARIOS[name] = (page) => access[name](page, base, out);
 SCENARIOS.mapelites = (page) => mapElites.mapElitesOnRuns(page, base, out);
 SCENARIOS.evolvemap = (page) => mapElites.mapElitesOnEvolve(page, base, out);
 

@@ -83,7 +83,9 @@ export async function caseStudy(page, out, name = 'tiny', cancel = 'endless') {
     && !document.getElementById('me-case-cancel').hidden, null, { timeout: 120000 });
   const running = await message();
   await page.click('#me-case-cancel');
-  await page.waitForSelector('#mesh-root .error:not([hidden])', { timeout: 60000 });
-  return { menu, shown, plyHeader, progress, running, cancelled: await page.textContent('#mesh-root .error'),
+  await page.waitForFunction(() => /cancelled/.test(window.morphogenMesh.ui.message.textContent), null, { timeout: 60000 });
+  return { menu, shown, plyHeader, progress, running, cancelled: await message(),
+    errorShown: await page.isVisible('#mesh-root .error'),
+    keptFaces: await x(page, () => (window.morphogenMesh.mesh ? window.morphogenMesh.mesh.f.length / 3 : 0)),
     cancelHidden: await x(page, () => document.getElementById('me-case-cancel').hidden) };
 }

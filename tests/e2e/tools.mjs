@@ -25,13 +25,20 @@ export async function urlState(page) {
   const after = await x(page, () => window.morphogenExplore.state);
   const hashAfter = await x(page, () => window.location.hash);
   // a link with refused settings says why and runs the default model instead
-  await page.goto(`${page.url().split('#')[0]}#explore?model=gray-scott&size=9999`);
+  const link = `${page.url().split('#')[0]}#explore?model=gray-scott&size=9999`;
+  await page.goto(link);
   const keptRunning = await page.waitForSelector('#ex-error:not([hidden])').then(() => x(page, () => window.morphogenExplore.state.cmap));
-  await page.reload(); // the same link opened afresh
-  await page.waitForFunction(() => window.morphogenExplore?.frames >= 2 && window.morphogenExplore.state
+  // after the refusal the address shows what runs again
+  await page.waitForFunction(() => !window.morphogenExplore.loading);
+  const hashKept = await x(page, () => window.location.hash);
+  const fresh = await page.context().newPage(); // the same link opened afresh
+  await fresh.goto(link);
+  await fresh.waitForFunction(() => window.morphogenExplore?.frames >= 2 && window.morphogenExplore.state
     && !document.getElementById('ex-error').hidden, null, { timeout: 60000 });
-  const refused = await page.textContent('#ex-error');
-  return { refused, keptRunning, refusedSize: await x(page, () => window.morphogenExplore.state.size), hash, urlBefore: { F: before.params.F, cmap: before.cmap, dt: before.dt, size: before.size },
+  const refused = await fresh.textContent('#ex-error');
+  const refusedSize = await x(fresh, () => window.morphogenExplore.state.size);
+  await fresh.close();
+  return { refused, keptRunning, refusedSize, hash, hashKept, urlBefore: { F: before.params.F, cmap: before.cmap, dt: before.dt, size: before.size },
     urlAfter: { F: after.params.F, cmap: after.cmap, dt: after.dt, size: after.size }, hashAfter };
 }
 
@@ -53,6 +60,7 @@ export async function readoutAndUndo(page) {
     const c = document.getElementById('ex-cb').getContext('2d').getImageData(255, 0, 1, 1).data;
     const lut = window.morphogenExplore.lut;
     return { lo: document.getElementById('ex-cb-lo').textContent, hi: document.getElementById('ex-cb-hi').textContent,
+      ticks: [...document.querySelectorAll('#ex-cb-ticks span')].map((e) => e.textContent),
       last: [window.morphogenExplore.last.lo, window.morphogenExplore.last.hi],
       top: [c[0], c[1], c[2]], lutTop: [lut[765], lut[766], lut[767]] };
   });

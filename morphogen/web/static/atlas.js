@@ -8,6 +8,8 @@ const DEFAULT_AXES = {
   'gray-scott': { x: ['k', 0.045, 0.07], y: ['F', 0.01, 0.08] },
 };
 
+const MAX_CELL_STEPS = 3.0e9; // the server's budget of one batched job (morphogen.web.limits)
+
 export class Atlas {
   constructor(root, app) {
     this.root = root;
@@ -28,7 +30,25 @@ export class Atlas {
     const img = this.$('at-image');
     img.addEventListener('click', (ev) => this.open(ev));
     img.addEventListener('mousemove', (ev) => this.hover(ev));
+    img.addEventListener('keydown', (ev) => this.tileKey(ev));
+    for (const id of ['at-x-n', 'at-y-n', 'at-tile']) this.$(id).addEventListener('input', () => this.stepLimit());
+    this.$('at-tile').addEventListener('change', () => this.stepLimit());
     await this.chooseModel();
+    this.stepLimit();
+  }
+
+  // the most steps the server takes for these tiles (cells x steps x tiles <= its budget,
+  // morphogen.web.limits.Limits.max_cell_steps), said beside the Steps box before the click
+  stepLimit() {
+    const tiles = Number(this.$('at-x-n').value) * Number(this.$('at-y-n').value);
+    const tile = Number(this.$('at-tile').value);
+    const most = Math.floor(MAX_CELL_STEPS / (tiles * tile * tile));
+    const box = this.$('at-steps');
+    if (Number.isFinite(most) && most > 0) {
+      box.max = String(most);
+      box.title = `at most ${most} steps for ${tiles} tiles of ${tile}²`;
+      this.$('at-steps-limit').textContent = `at most ${most} steps for these tiles`;
+    }
   }
 
   async chooseModel() {
@@ -113,6 +133,7 @@ export class Atlas {
 
   showResult(res) {
     this.result = res;
+    this.keyTile = null;
     const img = this.$('at-image');
     const cell = res.tile + res.pad;
     const zoom = Math.max(1, Math.floor(640 / (Math.max(res.x.n, res.y.n) * cell)));
@@ -168,15 +189,37 @@ export class Atlas {
     return { i, j, x: res.x.values[j], y: res.y.values[res.y.n - 1 - i] };
   }
 
+  // keyboard: arrows choose a tile (read out like the pointer's), Enter opens it in Explore
+  tileKey(ev) {
+    const res = this.result;
+    const move = { ArrowLeft: [0, -1], ArrowRight: [0, 1], ArrowUp: [-1, 0], ArrowDown: [1, 0] }[ev.key];
+    if (!res || (!move && ev.key !== 'Enter')) return;
+    ev.preventDefault();
+    const [i, j] = this.keyTile || [res.y.n - 1, 0];
+    const [di, dj] = move || [0, 0];
+    const ni = Math.min(Math.max(i + di, 0), res.y.n - 1);
+    const nj = Math.min(Math.max(j + dj, 0), res.x.n - 1);
+    this.keyTile = [ni, nj];
+    const t = { i: ni, j: nj, x: res.x.values[nj], y: res.y.values[res.y.n - 1 - ni] };
+    if (move) this.showTile(t);
+    else this.openTile(t);
+  }
+
   hover(ev) {
-    const t = this.result && this.tileAt(ev);
+    this.showTile(this.result && this.tileAt(ev));
+  }
+
+  showTile(t) {
     const family = t && this.result.families ? ` · ${this.result.families.labels[t.i][t.j]}` : '';
     this.$('at-hover').textContent = t
       ? `${this.result.x.name} = ${fmt(t.x)}, ${this.result.y.name} = ${fmt(t.y)}${family}` : '';
   }
 
   open(ev) {
-    const t = this.result && this.tileAt(ev);
+    this.openTile(this.result && this.tileAt(ev));
+  }
+
+  openTile(t) {
     if (!t) return;
     const res = this.result;
     const params = { ...res.params, [res.x.name]: t.x, [res.y.name]: t.y };

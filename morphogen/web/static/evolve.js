@@ -125,8 +125,8 @@ export class Evolve {
         on.checked = Boolean(g);
         return el('div', { class: 'param' },
           el('label', { class: 'pname', title: p.name }, on, p.name),
-          el('input', { type: 'number', step: 'any', value: fmt(lo), class: 'pnum', 'data-low': p.name }),
-          el('input', { type: 'number', step: 'any', value: fmt(hi), class: 'pnum', 'data-high': p.name }));
+          el('input', { type: 'number', step: 'any', value: fmt(lo), class: 'pnum', 'data-low': p.name, 'aria-label': `${p.name} lowest` }),
+          el('input', { type: 'number', step: 'any', value: fmt(hi), class: 'pnum', 'data-high': p.name, 'aria-label': `${p.name} highest` }));
       }));
       this.sigma = new Map(d.genes.map((g) => [g.name, g.sigma]));
       showError(u.error, '');

@@ -3,33 +3,16 @@
 
 import { api, colourTable, el, fillSelect, fmt, showError } from './api.js';
 import { ExploreTools } from './explore_tools.js';
+import { frameMethods } from './explore_frames.js';
 import { ParamMaps } from './explore_maps.js';
+import {
+  EQUATIONS, EXAMPLE, downloadPage, frameEstimate, keepCheckpoint, putCheckpoint, restoreCheckpoint,
+  settingsOf, viewOf,
+} from './explore_session.js';
 import { currentQuery, decodeSettings, encodeState, settingsFromRunFile } from './urlstate.js';
 
-const HEADER_BYTES = 28; // u16 w, u16 h, u32 frame, f32 t, u32 steps, f32 lo, f32 hi, f32 ms
-const EQUATIONS = '__equations__';
-const EXAMPLE = `# a model file (TOML): parameters stay runtime values, lap() is diffusion
-name = "schnakenberg-pasted"
-species = ["u", "v"]
-display = "u"
-dt = 0.005
-t_end = 60.0
-init = "noise"
-
-[parameters]
-a = 0.1
-b = 0.9
-Du = 1.0
-Dv = 40.0
-
-[equations]
-u = "a - u + u**2*v + Du*lap(u)"
-v = "b - u**2*v + Dv*lap(v)"
-
-[initial]
-u = "a + b"
-v = "b / (a + b)**2"
-`;
+const FRAME_BUDGET_S = 30; // the server's limit on one frame (morphogen.web.limits)
+const MIN_DEFAULT_STEPS = 4; // the fewest steps per frame the server picks for a new scheme
 
 export class Explore {
   constructor(root, app) {
@@ -108,6 +91,15 @@ export class Explore {
   // (Re)start with settings {model, params, preset, init, seed, size, height, boundary,
   // scheme}, then optionally {view: {cmap, species, steps_per_frame, range}, dt} (from a link).
   async load(settings) {
+    this.loading = (this.loading || 0) + 1; // what the end-to-end tests wait on
+    try {
+      return await this.loadNow(settings);
+    } finally {
+      this.loading -= 1;
+    }
+  }
+
+  async loadNow(settings) {
     this.presetName = settings.preset || '';
     const body = {
       model: settings.model,
@@ -140,24 +132,77 @@ export class Explore {
         this.openSocket();
       }
       this.tools.forget();
-      if (settings.view && Object.keys(settings.view).length) {
-        state = await api(`/api/live/${this.sid}/view`, { method: 'POST', body: settings.view });
-      }
-      if (settings.dt) {
-        state = await api(`/api/live/${this.sid}/params`, { method: 'POST', body: { params: {}, dt: settings.dt } });
-      }
+      if (JSON.stringify(settings.model) !== JSON.stringify(this.spec)) this.handDt = undefined;
       this.model = settings.model.library
         ? await api(`/api/models/${settings.model.library}`)
         : await api('/api/models/parse', { method: 'POST', body: { equations: settings.model.equations } });
       this.spec = settings.model;
+      const refused = []; // the run started; a view or dt it cannot take is named, not fatal
+      if (settings.view && Object.keys(settings.view).length) {
+        state = await api(`/api/live/${this.sid}/view`, { method: 'POST', body: settings.view })
+          .catch((err) => { refused.push(err.message); return state; });
+      }
+      if (settings.dt) {
+        const body = { params: {}, dt: Math.min(settings.dt, state.dt_max) };
+        state = await api(`/api/live/${this.sid}/params`, { method: 'POST', body })
+          .catch((err) => { refused.push(err.message); return state; });
+      }
       await this.applyState(state, true);
-      showError(this.$('ex-error'), '');
-      this.setRunning(true);
+      showError(this.$('ex-error'), refused.join('\n'));
+      this.kept = null; // a new start: nothing painted yet
+      this.setRunning(!settings.paused);
     } catch (err) {
-      if (err.body?.gone) { this.sid = null; return this.load(settings); }
+      if (err.body?.gone) { this.sid = null; return this.loadNow(settings); }
       showError(this.$('ex-error'), err.message);
       this.tools.markLine(settings.model?.equations ? err.message : '');
+      await this.resync(Boolean(settings.model?.equations));
     }
+    return undefined;
+  }
+
+  // After a refusal: every control shows what the server is actually running (a pasted model
+  // the parser refused keeps its box open, to be corrected).
+  async resync(keepModelBox = false) {
+    if (!this.sid) return;
+    try {
+      const state = await api(`/api/live/${this.sid}`);
+      if (!keepModelBox && this.spec) {
+        this.$('ex-model').value = this.spec.library || EQUATIONS;
+        this.$('ex-eq-box').hidden = Boolean(this.spec.library);
+      }
+      await this.applyState(state, false);
+    } catch (err) {
+      if (err.body?.gone) this.recover();
+    }
+  }
+
+  // The session is gone (the server restarted or forgot it): start it again with everything
+  // the page knows, so the parameters, view, grid, scheme and the address stay as they were.
+  // The painted state at the last stroke is kept in the page and put back; a paused view stays
+  // paused.
+  recover() {
+    if (this.recovering) return this.recovering;
+    const kept = this.kept;
+    const maps = this.state && Object.keys(this.state.maps || {}).length;
+    const settings = this.state && this.spec ? settingsOf(this.state, this.spec)
+      : { model: this.spec || { library: 'gray-scott' } };
+    settings.paused = !this.running;
+    this.sid = null;
+    this.recovering = this.load(settings).then(async () => {
+      const painted = kept && this.sid ? await putCheckpoint(this, kept).then(() => true, () => false) : false;
+      if (!this.running) this.request(true, true);
+      showError(this.$('ex-notice'), `the server was restarted: the same settings run again${
+        painted ? ', from the painted state of the last stroke' : ' from the start'}${
+        maps ? ' (parameter maps are not kept)' : ''}`);
+    }).finally(() => { this.recovering = null; });
+    return this.recovering;
+  }
+
+  // after a stroke, undo, image or reset (the undo count changed): keep the painted state
+  strokesChanged(n) {
+    clearTimeout(this.keepTimer);
+    if (!(n > 0)) { this.kept = null; return; }
+    this.keepTimer = setTimeout(() => keepCheckpoint(this), 200);
   }
 
   async applyState(state, rebuild) {
@@ -174,7 +219,7 @@ export class Explore {
     this.$('ex-seed').value = state.seed;
     const sizes = this.$('ex-size');
     if (![...sizes.options].some((o) => o.value === String(state.size))) {
-      sizes.add(new Option(`${state.size} × ${state.size}`, String(state.size)), 0);
+      sizes.add(new Option(String(state.size), String(state.size)), 0);
     }
     sizes.value = String(state.size);
     this.$('ex-cmap').value = state.cmap;
@@ -267,7 +312,10 @@ export class Explore {
       this.writeUrl();
     } catch (err) {
       this.fail(err);
-      if (this.state) this.setDt(this.state.dt, this.state.dt_max); // a refused dt leaves the box
+      if (this.state) { // a refused value leaves its box: the running values come back
+        this.setDt(this.state.dt, this.state.dt_max);
+        for (const [name, v] of Object.entries(this.state.params)) this.setParamUI(name, v);
+      }
     } finally {
       this.sending = false;
     }
@@ -290,15 +338,21 @@ export class Explore {
     });
     this.$('ex-dt').addEventListener('input', () => {
       this.$('ex-dt-num').value = fmt(Number(this.$('ex-dt').value));
-      this.sendParams({ dt: Number(this.$('ex-dt').value) });
+      this.handDt = Number(this.$('ex-dt').value);
+      this.sendParams({ dt: this.handDt });
     });
-    this.$('ex-dt-num').addEventListener('change', () => this.sendParams({ dt: Number(this.$('ex-dt-num').value) }));
+    this.$('ex-dt-num').addEventListener('change', () => {
+      this.handDt = Number(this.$('ex-dt-num').value);
+      this.sendParams({ dt: this.handDt });
+    });
     const view = (body) => this.setView(body);
     this.$('ex-png-scale').addEventListener('change', () => this.updateLinks());
     this.$('ex-species').addEventListener('change', () => view({ species: this.$('ex-species').value }));
     this.$('ex-cmap').addEventListener('change', () => view({ cmap: this.$('ex-cmap').value }));
     this.$('ex-steps').addEventListener('change', () => view({ steps_per_frame: Number(this.$('ex-steps').value) }));
     this.$('ex-reset').addEventListener('click', () => this.reset());
+    this.$('ex-save-page').addEventListener('click', () => downloadPage(this));
+    this.$('ex-restore').addEventListener('change', () => restoreCheckpoint(this));
     this.$('ex-size').addEventListener('change', () => this.restart());
     this.$('ex-boundary').addEventListener('change', () => this.restart());
     this.$('ex-height').addEventListener('change', () => this.restart());
@@ -356,13 +410,35 @@ export class Explore {
     action();
   }
 
+  // a new grid, boundary or scheme: the view (species, steps per frame, colours, a fixed range)
+  // and a hand-set dt stay; a new scheme runs at its own stable step. A set-up whose frames
+  // would take longer than the server allows is refused here, before it starts.
   restart() {
     const height = this.$('ex-height').value;
-    this.load({
+    const scheme = this.$('ex-scheme').value;
+    const size = Number(this.$('ex-size').value);
+    const h = height ? Number(height) : size;
+    const boundary = this.$('ex-boundary').value;
+    const view = viewOf(this.state);
+    if (scheme !== this.state.scheme) { // a new step: the server picks dt and steps per frame
+      this.handDt = undefined;
+      delete view.steps_per_frame;
+    }
+    const steps = view.steps_per_frame ?? MIN_DEFAULT_STEPS;
+    const est = frameEstimate(this.seen, scheme, boundary, size * h, steps);
+    if (est !== null && est > FRAME_BUDGET_S) {
+      showError(this.$('ex-error'), `${scheme} at ${size} × ${h} with ${steps} steps per frame `
+        + `would take about ${est.toFixed(0)} s a frame, over the server's ${FRAME_BUDGET_S} s limit: `
+        + 'lower the steps per frame or the grid first');
+      this.resync();
+      return undefined;
+    }
+    showError(this.$('ex-notice'), est !== null && est > 1
+      ? `expect about ${est.toFixed(1)} s per frame (${scheme}, ${size} × ${h})` : '');
+    return this.load({
       model: this.spec, params: this.state.params, init: this.$('ex-init').value,
-      seed: Number(this.$('ex-seed').value), size: Number(this.$('ex-size').value),
-      height: height ? Number(height) : undefined, boundary: this.$('ex-boundary').value,
-      scheme: this.$('ex-scheme').value,
+      seed: Number(this.$('ex-seed').value), size, height: height ? Number(height) : undefined,
+      boundary, scheme, view, dt: this.handDt,
     });
   }
 
@@ -382,6 +458,12 @@ export class Explore {
   setRunning(on) {
     this.running = on;
     this.$('ex-run').textContent = on ? 'Pause' : 'Run';
+    if (!on) { // no frame rate while paused: say so instead of showing the last one
+      this.fps = 0;
+      this.fpsWindow = [];
+      const f = this.last;
+      this.$('ex-stats').textContent = f ? `paused · t = ${fmt(f.t)} · ${f.steps} steps` : 'paused';
+    }
     this.request();
   }
 
@@ -390,104 +472,16 @@ export class Explore {
     const cmap = encodeURIComponent(this.$('ex-cmap').value);
     this.$('ex-save-png').href = `/api/live/${this.sid}/png?cmap=${cmap}&scale=${this.$('ex-png-scale').value}`;
     this.$('ex-save-run').href = `/api/live/${this.sid}/config`;
-  }
-
-  // -- frames ------------------------------------------------------------------------------
-  openSocket() {
-    const proto = window.location.protocol === 'https:' ? 'wss' : 'ws';
-    const ws = new WebSocket(`${proto}://${window.location.host}/api/live/${this.sid}/ws`);
-    ws.binaryType = 'arraybuffer';
-    ws.onopen = () => {
-      this.inflight = false;
-      if (this.disconnected) showError(this.$('ex-error'), '');
-      this.disconnected = false;
-      this.request();
-    };
-    ws.onmessage = (ev) => this.onMessage(ev.data);
-    ws.onclose = () => {
-      this.inflight = false;
-      if (this.ws !== ws) return;
-      this.disconnected = true;
-      this.fps = 0;
-      this.fpsWindow = [];
-      this.$('ex-stats').textContent = 'no frames: the server is not answering';
-      showError(this.$('ex-error'), 'lost the connection to the server; reconnecting every second…');
-      setTimeout(() => this.openSocket(), 1000);
-    };
-    this.ws = ws;
-  }
-
-  // ask for the next frame (while running, or once with force; still: redraw, no steps)
-  request(force = false, still = false) {
-    const ws = this.ws;
-    if (!(this.running || force) || !this.visible || this.inflight || !ws || ws.readyState !== WebSocket.OPEN) return;
-    this.inflight = true;
-    ws.send(still ? 'show' : 'next');
-  }
-
-  onMessage(data) {
-    this.inflight = false;
-    if (typeof data === 'string') {
-      const msg = JSON.parse(data);
-      if (msg.gone) { this.sid = null; this.load({ model: this.spec }); return; }
-      showError(this.$('ex-error'), msg.error);
-      this.setRunning(false);
-      return;
-    }
-    this.draw(data);
-    requestAnimationFrame(() => this.request());
-  }
-
-  draw(buf) {
-    const head = new DataView(buf, 0, HEADER_BYTES);
-    const w = head.getUint16(0, true);
-    const h = head.getUint16(2, true);
-    this.last = {
-      w, h, frame: head.getUint32(4, true), t: head.getFloat32(8, true),
-      steps: head.getUint32(12, true), lo: head.getFloat32(16, true), hi: head.getFloat32(20, true),
-      ms: head.getFloat32(24, true), pixels: new Uint8Array(buf, HEADER_BYTES, w * h),
-    };
-    this.redraw();
-    this.tools.onFrame(this.last);
-    this.frames += 1;
-    this.firstFrameAt ??= performance.now(); // ms after the page's navigation began
-    const now = performance.now();
-    this.fpsWindow.push(now);
-    while (this.fpsWindow.length && now - this.fpsWindow[0] > 2000) this.fpsWindow.shift();
-    if (this.fpsWindow.length > 1) {
-      this.fps = (this.fpsWindow.length - 1) / ((now - this.fpsWindow[0]) / 1000);
-    }
-    const f = this.last;
-    this.$('ex-stats').textContent = `${this.fps.toFixed(1)} frames/s · t = ${fmt(f.t)} · `
-      + `${f.steps} steps · ${f.ms.toFixed(1)} ms/frame on the server · range ${fmt(f.lo)}…${fmt(f.hi)}`;
-  }
-
-  redraw() {
-    const f = this.last;
-    if (!f || !this.lut) return;
-    if (this.canvas.width !== f.w || this.canvas.height !== f.h) {
-      this.canvas.width = f.w;
-      this.canvas.height = f.h;
-    }
-    if (!this.image || this.image.width !== f.w || this.image.height !== f.h) {
-      this.image = this.ctx.createImageData(f.w, f.h);
-    }
-    const out = this.image.data;
-    const lut = this.lut;
-    const px = f.pixels;
-    for (let i = 0, j = 0; i < px.length; i += 1, j += 4) {
-      const k = px[i] * 3;
-      out[j] = lut[k]; out[j + 1] = lut[k + 1]; out[j + 2] = lut[k + 2]; out[j + 3] = 255;
-    }
-    this.ctx.putImageData(this.image, 0, 0);
+    this.$('ex-save-state').href = `/api/live/${this.sid}/state.npz`;
   }
 
   fail(err) {
     if (err.body?.gone) {
-      this.sid = null;
-      this.load({ model: this.spec, params: this.state?.params });
+      this.recover();
       return;
     }
     showError(this.$('ex-error'), err.message);
   }
 }
+
+Object.assign(Explore.prototype, frameMethods); // the WebSocket and the canvas: explore_frames.js

@@ -54,6 +54,8 @@ export class ExploreTools {
   onFrame(f) {
     this.$('ex-cb-lo').textContent = fmt(f.lo);
     this.$('ex-cb-hi').textContent = fmt(f.hi);
+    const ticks = this.$('ex-cb-ticks').children; // the values at 1/6, 1/2 and 5/6 of the bar
+    for (let i = 0; i < 3; i += 1) ticks[i].textContent = fmt(f.lo + ((f.hi - f.lo) * (2 * i + 1)) / 6);
     if (this.recording) {
       this.recorded += 1;
       this.$('ex-record').textContent = `Stop recording (${this.recorded} frames)`;
@@ -124,9 +126,29 @@ export class ExploreTools {
     const up = () => { down = false; };
     this.x.canvas.addEventListener('pointerup', up);
     this.x.canvas.addEventListener('pointercancel', up);
+    this.keyAt = [0.5, 0.5]; // the keyboard's brush: arrows move it, Enter paints there
+    this.x.canvas.addEventListener('keydown', (ev) => this.brushKey(ev));
     this.$('ex-brush').addEventListener('input', () => this.brushCursor());
     this.$('ex-image').addEventListener('change', () => this.loadImage());
     window.addEventListener('resize', () => this.brushCursor());
+  }
+
+  // the picture focused: arrows (Shift: larger steps) move a point whose cell the readout
+  // reads, Enter paints one disc there (one undo step)
+  brushKey(ev) {
+    const move = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, -1], ArrowDown: [0, 1] }[ev.key];
+    if (!move && ev.key !== 'Enter') return;
+    ev.preventDefault();
+    ev.stopPropagation();
+    const step = ev.shiftKey ? 1 / 8 : 1 / 32;
+    if (move) {
+      this.keyAt = this.keyAt.map((v, i) => Math.min(Math.max(v + move[i] * step, 0), 1));
+    } else {
+      this.paintQueue.push([...this.keyAt, true]);
+      if (!this.paintTimer) this.paintTimer = setTimeout(() => this.flushPaint(), 30);
+    }
+    this.probeAt = [...this.keyAt];
+    if (!this.probing) this.sendProbe();
   }
 
   // a PNG's grey levels (0 to the Value box) become the chosen species' state; undo takes it back
@@ -236,6 +258,10 @@ export class ExploreTools {
 
   // -- undo ---------------------------------------------------------------------------------
   setUndo(n) {
+    if (n !== this.undoCount) { // a stroke, an undo or a reset: the page keeps the painted state
+      this.undoCount = n;
+      this.x.strokesChanged?.(n);
+    }
     this.$('ex-undo').disabled = !(n > 0);
     this.$('ex-undo').textContent = n > 0 ? `Undo stroke (${n})` : 'Undo stroke';
   }

@@ -14,8 +14,7 @@ export class Mesh {
   constructor(root, app) {
     this.root = root.querySelector('#mesh-root');
     this.app = app;
-    this.rot = { a: -0.6, b: 0.9 }; // azimuth, elevation (radians)
-    this.zoom = 1;
+    this.resetView();
     window.morphogenMesh = this;
   }
 
@@ -129,6 +128,7 @@ export class Mesh {
     };
     if (u.steps.value !== '') body.steps = Number(u.steps.value);
     if (resume && this.lastJob) body.from = this.lastJob;
+    else this.resetView(); // a new flower: the default view
     if (this.painted.size) body.paint = { name: u.field.value, value: Number(u.value.value), vertices: [...this.painted] };
     try {
       const { job } = await api('/api/mesh', { method: 'POST', body });
@@ -189,6 +189,12 @@ export class Mesh {
     }
   }
 
+  // the view a new flower starts with (the previous one's zoom and tilt are not kept)
+  resetView() {
+    this.rot = { a: -0.6, b: 0.9 }; // azimuth, elevation (radians)
+    this.zoom = 1;
+  }
+
   setMesh(res) {
     const v = Float32Array.from(res.vertices);
     const n = v.length / 3;
@@ -226,6 +232,19 @@ export class Mesh {
       this.draw();
     });
     cv.addEventListener('pointerup', () => { last = null; });
+    cv.tabIndex = 0; // keyboard: arrows turn and tilt the flower, + and - zoom
+    cv.setAttribute('aria-label', 'the flower: arrow keys turn and tilt it, + and - zoom');
+    cv.addEventListener('keydown', (e) => {
+      const turn = { ArrowLeft: [-0.1, 0], ArrowRight: [0.1, 0], ArrowUp: [0, -0.05], ArrowDown: [0, 0.05] }[e.key];
+      const zoom = { '+': 1.1, '=': 1.1, '-': 1 / 1.1 }[e.key];
+      if (!turn && !zoom) return;
+      e.preventDefault();
+      if (turn) {
+        this.rot.a += turn[0];
+        this.rot.b = Math.max(-MAX_TILT, Math.min(MAX_TILT, this.rot.b + turn[1]));
+      } else this.zoom = Math.max(0.3, Math.min(5, this.zoom * zoom));
+      this.draw();
+    });
     cv.addEventListener('wheel', (e) => {
       e.preventDefault();
       this.zoom = Math.max(0.3, Math.min(5, this.zoom * Math.exp(-e.deltaY * 0.001)));

@@ -45,6 +45,7 @@ export class CaseStudies {
       });
       m.lastJob = null; // Continue grows the procedural flower, not a case study
       m.painted.clear();
+      m.resetView();
       m.setMesh(res);
       u.still.src = res.image;
       u.still.hidden = false;
@@ -54,12 +55,17 @@ export class CaseStudies {
         + `${res.wall_time_s} s; shown: stage ${res.stage}`;
       this.result = res;
     } catch (err) {
+      if (err.message === 'cancelled') { // the user's own cancel: no error, what was shown stays
+        const shown = this.result ? `; still showing ${this.result.caption}` : '';
+        u.message.textContent = `case study cancelled${shown}`;
+        return;
+      }
       m.mesh = null;
       u.ply.hidden = true; u.png.hidden = true;
       u.canvas.getContext('2d').clearRect(0, 0, u.canvas.width, u.canvas.height);
       u.still.hidden = true;
       u.message.textContent = '';
-      showError(u.error, err.message === 'cancelled' ? 'case study cancelled' : err.message);
+      showError(u.error, err.message);
     } finally {
       this.job = null;
       this.go.disabled = false;

@@ -46,6 +46,10 @@ export class Runs {
           el('td', { text: `${r.done}/${r.generations}` }), el('td', { text: r.best == null ? '–' : fmt(r.best) }),
           el('td', { text: r.status }));
         tr.addEventListener('click', () => this.open(r.id));
+        tr.tabIndex = 0; // keyboard: Tab to a run, Enter or Space opens it
+        tr.addEventListener('keydown', (ev) => {
+          if (ev.key === 'Enter' || ev.key === ' ') { ev.preventDefault(); this.open(r.id); }
+        });
         return tr;
       });
       this.list.replaceChildren(el('table', { class: 'runs' }, el('thead', {}, head), el('tbody', {}, ...rows)));

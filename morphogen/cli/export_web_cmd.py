@@ -1,0 +1,56 @@
+"""``morphogen export-web``: a run or model as one self-contained HTML page (WebGL2)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from morphogen.cli import options
+from morphogen.errors import MorphogenError
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "export-web",
+        help="write a self-contained HTML page that runs a model in the browser (WebGL2)",
+        description="Write one HTML file that runs the model in any browser with WebGL2, on the "
+        "viewer's GPU, with no server and no network: the same parameters, dt, grid, stencil "
+        "(5 or 9), boundary (periodic or neumann), colour map and initial state, sliders for "
+        "the parameters, a brush, pause and reset. The shader is generated from the model's own "
+        "equations. Explicit Euler on 2D grids only; anything else is refused.",
+    )
+    p.add_argument("source", metavar="RUN_OR_MODEL",
+                   help="a run.json (from simulate or the web app), a library model name or a "
+                   "model file (.toml)")
+    options.add_run_arguments(p, "simulate")
+    p.add_argument("--state", metavar="STATE_NPZ",
+                   help="start from this state (a state.npz of simulate, or a checkpoint)")
+    p.add_argument("--out", required=True, metavar="PAGE_HTML", help="the page to write")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from morphogen.cli.simulate_cmd import config_from_args
+    from morphogen.runs.web_page import export_page
+
+    is_run = Path(args.source).suffix.lower() == ".json"
+    args.config, args.model = (args.source, None) if is_run else (None, args.source)
+    config = config_from_args(args)
+    state = None
+    if args.state:
+        from morphogen.runs.prepare import load_config_model
+
+        species = load_config_model(config).species
+        with np.load(args.state) as data:
+            missing = [s for s in species if s not in data.files]
+            if missing:
+                raise MorphogenError(f"{args.state} has no field for species {missing[0]}")
+            state = np.stack([data[s] for s in species]).astype(np.float32)
+    page = export_page(config, state)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(page, encoding="utf-8")
+    print(f"wrote {out} ({len(page.encode()) / 1024:.0f} KiB)")
+    return 0
