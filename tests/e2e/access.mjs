@@ -93,6 +93,7 @@ export async function keyboard(page, base, out) {
   seen.meshTurned = (await page.evaluate(() => window.morphogenMesh.rot.a)) - turn;
   // Runs: a row takes the focus and Enter opens it (the archive holds the atlas? no: any run)
   await ready(page, base, 'runs');
+  await page.locator('tr[data-run]').first().waitFor(); // the list arrives after the page
   const rows = await page.locator('tr[data-run]').count();
   seen.runRows = rows;
   if (rows) {
@@ -147,6 +148,7 @@ export async function phone(page, base, out) {
   await p.screenshot({ path: join(out, 'phone-atlas-mosaic.png') });
   // the runs table scrolls in its own box, the run column stays visible
   await ready(p, base, 'runs');
+  await p.locator('#runs-list tbody td').first().waitFor(); // the list arrives after the page
   const runs = await p.evaluate(() => {
     const list = document.getElementById('runs-list');
     const cell = list.querySelector('tbody td');
