@@ -165,10 +165,12 @@ def make_etd_advance(model: Model, domain: Domain) -> Advance:
     return Advance(update, invariants)
 
 
-def _etdrk4_stack(spec: SpectralDiffusion, mirror: bool, k: tuple[Array, ...], u: Array,
-                  t: Array, dt: Array, reaction) -> Array:
-    """One ETDRK4 step of the whole ``(S, *spatial)`` state, every species in one transform."""
-    e, e2, q, f1, f2x2, f3 = k
+def etdrk4_stages(spec: SpectralDiffusion, mirror: bool, e2: Array, q: Array, u: Array,
+                  t: Array, dt: Array, reaction) -> tuple[Array, ...]:
+    """The Cox-Matthews ETDRK4 stages of the whole ``(S, *spatial)`` state, every species in
+    one transform: the state and the reaction at ``u``, ``a``, ``b`` and ``c``, all in Fourier
+    space, ``(v, N(u), N(a), N(b), N(c))``; ``e2 = exp(z/2)``, ``q = dt φ₁(z/2)/2``. ETDRK4 and
+    its error-controlled form combine them with their own weights."""
     n = u.shape[0]
     both = spec.forward_stack(jnp.concatenate([u, reaction(u, t)]), mirror)
     v, nv = both[:n], both[n:]
@@ -179,6 +181,14 @@ def _etdrk4_stack(spec: SpectralDiffusion, mirror: bool, k: tuple[Array, ...], u
     nb = spec.forward_stack(reaction(b, t + dt / 2), mirror)
     c = spec.inverse_stack(e2 * a_hat + q * (2.0 * nb - nv), mirror, u.dtype)
     nc = spec.forward_stack(reaction(c, t + dt), mirror)
+    return v, nv, na, nb, nc
+
+
+def _etdrk4_stack(spec: SpectralDiffusion, mirror: bool, k: tuple[Array, ...], u: Array,
+                  t: Array, dt: Array, reaction) -> Array:
+    """One ETDRK4 step of the whole ``(S, *spatial)`` state, every species in one transform."""
+    e, e2, q, f1, f2x2, f3 = k
+    v, nv, na, nb, nc = etdrk4_stages(spec, mirror, e2, q, u, t, dt, reaction)
     return spec.inverse_stack(e * v + f1 * nv + f2x2 * (na + nb) + f3 * nc, mirror, u.dtype)
 
 

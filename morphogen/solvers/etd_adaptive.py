@@ -43,7 +43,12 @@ import numpy as np
 from morphogen.domains.base import Domain
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Array, Model, Params
-from morphogen.solvers.etd import SERIES_CUT, _require_constant_in_time, phi_coefficients
+from morphogen.solvers.etd import (
+    SERIES_CUT,
+    _require_constant_in_time,
+    etdrk4_stages,
+    phi_coefficients,
+)
 from morphogen.solvers.fourier import SpectralDiffusion, require_spectral_grid
 
 NAME = "etdrk4-adaptive"
@@ -105,15 +110,7 @@ def make_pair(model: Model, domain: Domain) -> Callable[[Array, Params, Array, A
             return jnp.asarray(model.reaction(x, p, {**coords, "t": tt}), x.dtype)
 
         n = u.shape[0]
-        both = spec.forward_stack(jnp.concatenate([u, reaction(u, t)]), mirror)
-        v, nv = both[:n], both[n:]
-        a_hat = e2 * v + q * nv
-        na = spec.forward_stack(reaction(spec.inverse_stack(a_hat, mirror, u.dtype), t + h / 2),
-                                mirror)
-        b = spec.inverse_stack(e2 * v + q * na, mirror, u.dtype)
-        nb = spec.forward_stack(reaction(b, t + h / 2), mirror)
-        c = spec.inverse_stack(e2 * a_hat + q * (2.0 * nb - nv), mirror, u.dtype)
-        nc = spec.forward_stack(reaction(c, t + h), mirror)
+        v, nv, na, nb, nc = etdrk4_stages(spec, mirror, e2, q, u, t, h, reaction)
         u4 = e * v + f1 * nv + 2.0 * f2 * (na + nb) + f3 * nc
         err = (f1 - p1 + 2.0 * p2) * nv + 2.0 * (f2 - p2) * na + 2.0 * f2 * nb + f3 * nc
         out = spec.inverse_stack(jnp.concatenate([u4, err]), mirror, u.dtype)
