@@ -55,3 +55,18 @@ def quality_diversity_run() -> Callable[..., None]:
                      str(seed), "--quiet", "--archive", str(archive), "--out", str(out)]) == 0
 
     return run
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory):
+    """A test client of the web app with its own archive, answering a server error as HTTP 500
+    instead of raising it, so that a test can assert a hostile request never gets one. Test
+    modules that need another app (examples, hosts) define their own ``client``."""
+    from fastapi.testclient import TestClient
+
+    from morphogen.web.app import create_app
+
+    archive = tmp_path_factory.mktemp("archive") / "index.sqlite"
+    with TestClient(create_app(archive=archive, allowed_hosts=["testserver"]),
+                    raise_server_exceptions=False) as c:
+        yield c

@@ -3,9 +3,6 @@
 from __future__ import annotations
 
 import pytest
-from fastapi.testclient import TestClient
-
-from morphogen.web.app import create_app
 
 MODEL = """species = ["u", "v"]
 {head}
@@ -16,14 +13,6 @@ b = 0.9
 u = "a - u + u**2*v + lap(u)"
 v = "b - u**2*v + 40*lap(v)"
 """
-
-
-@pytest.fixture(scope="module")
-def client(tmp_path_factory):
-    archive = tmp_path_factory.mktemp("archive") / "index.sqlite"
-    app = create_app(archive=archive, allowed_hosts=["testserver"])
-    with TestClient(app, raise_server_exceptions=False) as c:
-        yield c
 
 
 def _one_line_400(r, fragment):

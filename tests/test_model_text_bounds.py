@@ -151,18 +151,6 @@ def test_deep_nesting_on_the_command_line(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
-@pytest.fixture(scope="module")
-def client(tmp_path_factory):
-    from fastapi.testclient import TestClient
-
-    from morphogen.web.app import create_app
-
-    archive = tmp_path_factory.mktemp("archive") / "index.sqlite"
-    app = create_app(archive=archive, allowed_hosts=["testserver"])
-    with TestClient(app, raise_server_exceptions=False) as c:
-        yield c
-
-
 @pytest.mark.parametrize("route, body", [
     ("/api/models/parse", lambda text: {"equations": text}),
     ("/api/mesh", lambda text: {"model": {"equations": text}}),

@@ -9,7 +9,6 @@ import importlib
 import json
 
 import pytest
-from fastapi.testclient import TestClient
 
 from morphogen.cli import options
 from morphogen.cli.main import main
@@ -19,7 +18,6 @@ from morphogen.runs.schema import RunSchema
 from morphogen.runs.settings import BY_NAME, COMMANDS, REQUIRED, SETTINGS, default, for_command
 from morphogen.solvers import registry
 from morphogen.web import batch, evolve_routes, explore, mesh_routes
-from morphogen.web.app import create_app
 from morphogen.web.evolve_routes import build
 from morphogen.web.limits import Limits
 from morphogen.web.settings import read_settings
@@ -157,14 +155,6 @@ def test_the_web_stencil_choices_are_the_command_line_ones():
     with pytest.raises(MorphogenError) as web:
         read_settings({"stencil": 4}, ["stencil"])
     assert web.value.args[0].split("; ")[0].endswith(", ".join(_flags("fit")["--stencil"].choices))
-
-
-@pytest.fixture(scope="module")
-def client(tmp_path_factory):
-    archive = tmp_path_factory.mktemp("archive") / "index.sqlite"
-    app = create_app(archive=archive, allowed_hosts=["testserver"])
-    with TestClient(app, raise_server_exceptions=False) as c:
-        yield c
 
 
 def test_the_live_grid_honours_dx_and_stencil(client):
