@@ -65,6 +65,11 @@ def test_bad_veins_stages(tmp_path, stage, message):
         run_pipeline(path, tmp_path / "out")
 
 
+def _tips(parent: np.ndarray) -> int:
+    """Vein tips: nodes that are nobody's parent."""
+    return int(np.sum(~np.isin(np.arange(len(parent)), parent)))
+
+
 def test_mesh_veins_command(tmp_path, capsys):
     src = tmp_path / "c.ply"
     save_ply(src, corolla(edge=0.06))
@@ -80,6 +85,16 @@ def test_mesh_veins_command(tmp_path, capsys):
     with np.load(tmp_path / "v.veins.npz") as graph:
         assert graph["nodes"].shape[1] == 3
     assert (tmp_path / "v.png").is_file()
+    lengths = ["--points", "200", "--step", "0.05", "--kill", "0.1", "--influence", "0.5"]
+    tips = {}
+    for name, extra in (("a", []), ("b", ["--refill", "30"]),
+                        ("c", ["--refill", "30", "--min-branch", "0.2"])):
+        assert main(["mesh", "veins", str(src), "--out", str(tmp_path / f"{name}.ply"),
+                     "--seeds", "throat", *lengths, *extra]) == 0
+        with np.load(tmp_path / f"{name}.veins.npz") as graph:
+            tips[name] = _tips(graph["parent"])
+    assert tips["b"] > tips["a"]  # points drawn as the surface fills grow more branches
+    assert 0 < tips["c"] < tips["b"] / 2  # and pruning removes the short terminal ones
     bad = tmp_path / "bad.ply"
     assert main(["mesh", "veins", str(src), "--out", str(bad), "--seeds", "throat",
                  "--points", "0"]) == 2

@@ -92,6 +92,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     veins.add_argument("--iterations", type=int, default=400, help="most growth steps (400)")
     veins.add_argument("--density", metavar="EXPR",
                        help="acceptance probability of attraction points, from fields")
+    veins.add_argument("--refill", type=int,
+                       help="attraction points drawn each growth step as the surface fills (0)")
+    veins.add_argument("--birth", type=float,
+                       help="a refilled point is kept only this far from veins and points "
+                       "(mesh units; default the kill distance)")
+    veins.add_argument("--min-branch", type=float,
+                       help="remove terminal branches shorter than this (mesh units; 0 keeps all)")
+    veins.add_argument("--gamma", type=float, help="Murray's-law exponent of vein thickness (3)")
+    veins.add_argument("--tip-radius", type=float, help="vein radius at the tips (mesh units)")
+    veins.add_argument("--same-piece", action="store_true",
+                       help="keep each vein on the connected piece of the mesh its root is on")
     veins.add_argument("--seed", type=options.seed, default=0, help="random seed (0)")
     veins.add_argument("--cmap", default="#f4f1fb,#7b68c8",
                        help="colour map of vein_distance under the veins")
@@ -213,8 +224,10 @@ def run_veins(args: argparse.Namespace) -> int:
     parse_view(args.view)
     mesh = load_mesh(args.file)
     stage = {k: getattr(args, k) for k in ("seeds", "points", "influence", "kill", "step",
-                                            "iterations", "density", "seed")
+                                            "iterations", "density", "seed", "refill", "birth",
+                                            "min_branch", "gamma", "tip_radius")
              if getattr(args, k) is not None}
+    stage["same_piece"] = args.same_piece
     graph, fields = grow_veins(stage, mesh)
     colours = overlay_veins(colourise(fields["vein_distance"], args.cmap), fields["vein"],
                             fields["vein_thickness"])
