@@ -59,7 +59,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--resume", metavar="RUN", help="continue a run: its directory or id")
     p.add_argument("--archive", help="run archive (default $MORPHOGEN_ARCHIVE or "
                    "runs/index.sqlite)")
-    p.add_argument("--executor", choices=EXECUTORS, default="local")
+    p.add_argument("--executor", choices=EXECUTORS, default="auto",
+                   help="auto (default): one Ray worker per core when a generation is large "
+                   "and Ray is installed, else this process; local; ray")
     p.add_argument("--address", help="Ray cluster address (default: start a local Ray)")
     p.add_argument("--batches", type=options.positive_int,
                    help="Ray tasks per generation (default: one per CPU)")
@@ -154,19 +156,24 @@ def run(args: argparse.Namespace) -> int:
             ) from None
         if args.generations is not None:
             set_generations(run_id, archive, args.generations)
-        executor = make_executor(args.executor, problem, gradient=gradient, **options_for)
+        executor = make_executor(args.executor, problem, gradient=gradient,
+                                 population=int(config["strategy"].get("population", 1)),
+                                 **options_for)
     else:
         problem = problem_from_args(args)
         strategy = strategy_from_args(args)
         gradient = STRATEGIES[strategy["name"]].needs_gradient
         executor = make_executor(args.executor, problem, gradient=gradient,
-                                 **options_for)  # validates first
+                                 population=args.population, **options_for)  # validates first
         make_strategy(strategy)  # checks --population, --elitism, --tournament
         archive = Archive(args.archive)
         run_id, _ = start(problem, strategy, generations=args.generations or GENERATIONS,
                           seed=problem.seed,
                           out=args.out, archive=archive, cmap=args.cmap or DEFAULTS["cmap"])
     print(f"run {run_id} in {archive.run(run_id)['dir']}", flush=True)
+    if args.executor == "auto" and executor.name == "ray":
+        print(f"evaluating each generation on {executor.batches} Ray workers (one per core); "
+              "--executor local keeps it in this process", flush=True)
     result = evolve(run_id, archive, executor, select=ask_selection,
                     progress=options.show_progress(args), log=lambda line: print(line, flush=True))
     genes = gene_summary([g.name for g in problem.genes], result.best_genome)

@@ -11,6 +11,7 @@ import numpy as np
 
 from morphogen.cli import networks_export_cmd
 from morphogen.errors import MorphogenError
+from morphogen.search.executors import EXECUTORS, auto_executor
 from morphogen.util.guard import WORKING_COPIES, check_count, check_numbers, check_steps
 from morphogen.util.io import check_out_name, ensure_writable_dir, write_atomic, write_json
 from morphogen.util.progress import ProgressBar
@@ -59,8 +60,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--tournament", type=int, help="default: 2")
     p.add_argument("--archive", help="run archive (default $MORPHOGEN_ARCHIVE or "
                    "runs/index.sqlite); `morphogen runs` lists the run")
-    p.add_argument("--executor", choices=("local", "ray"), default="local",
-                   help="evaluate each generation here, or split over Ray workers")
+    p.add_argument("--executor", choices=EXECUTORS, default="auto",
+                   help="auto (default): one Ray worker per core when a generation is large "
+                   "and Ray is installed, else this process; local; ray")
     p.add_argument("--address", help="Ray cluster address (default: start a local Ray)")
     p.add_argument("--batches", type=int, help="Ray tasks per generation (default: one per "
                    "CPU)")
@@ -142,14 +144,20 @@ def run(args: argparse.Namespace) -> int:
         run_id = record.start(out, archive, {
             "mode": args.mode, "generations": args.generations, "population": args.population,
             "seed": args.seed, "spec": asdict(spec), "ops": asdict(ops), "ev": asdict(ev)})
+    per_gen = ev.start_steps + (ev.rounds - 1) * ev.round_steps
     evaluator = None
-    if args.executor == "ray":
+    executor = args.executor
+    if executor == "auto":
+        executor = auto_executor(args.population * args.size ** 2 * per_gen)
+    if executor == "ray":
         from morphogen.search.networks.ray_workers import RayNetworkEvaluator
 
         evaluator = RayNetworkEvaluator(address=args.address, batches=args.batches)
+        if args.executor == "auto" and not args.quiet:
+            print(f"evaluating each generation on {evaluator.batches} Ray workers (one per "
+                  "core); --executor local keeps it in this process", flush=True)
     recorder = record.Recorder(archive, run_id, Path(out), spec, asdict(ev))
     done = completed(out) if args.resume else 0
-    per_gen = ev.start_steps + (ev.rounds - 1) * ev.round_steps
     bar = ProgressBar(max(args.generations - done, 0) * per_gen, enabled=not args.quiet,
                       unit="step", desc=args.mode)
     try:

@@ -1,5 +1,12 @@
 """Where a generation is evaluated: in this process, or split into batches over Ray workers.
 
+``auto`` (the default of ``evolve`` and ``networks``) chooses by the work of a generation: from
+:data:`AUTO_WORK` cell-steps on, on a machine with more than one core and Ray installed, one
+single-threaded Ray worker per core, each evaluating one batch of the population; below it, or
+without Ray, this process. Measured (``bench/bench_threads.py``): one process with XLA's own
+intra-op threads is no faster than one single-threaded process on these kernels, while
+independent single-threaded processes scale with the cores.
+
 An executor has ``evaluate(genomes (P, G), key, update) -> (fitness (P,), metrics)`` and says
 how its progress is counted (``unit``, ``total(P)``); ``update(n)`` is called as work is done.
 Both executors give each individual the key ``fold_in(key, i)`` (see
@@ -8,6 +15,7 @@ Both executors give each individual the key ``fold_in(key, i)`` (see
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 from collections.abc import Callable
@@ -19,7 +27,55 @@ from morphogen.errors import MorphogenError
 from morphogen.search.evaluate import Evaluator, Problem, cached_evaluator, individual_keys
 
 Update = Callable[[int], None]
-EXECUTORS = ("local", "ray")
+EXECUTORS = ("auto", "local", "ray")
+AUTO_WORK = 2e9
+"""Cell-steps per generation from which ``auto`` splits a generation over Ray workers (about 5
+CPU-seconds: Ray's start and each worker's compilation, a few seconds once, are then repaid
+within the first generations)."""
+SINGLE_THREAD = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+"""``XLA_FLAGS`` of the workers of a local Ray (unless the caller set ``XLA_FLAGS``): one
+thread each, one worker per core."""
+
+
+def cores() -> int:
+    """CPUs this process may run on."""
+    return len(os.sched_getaffinity(0))
+
+
+def auto_executor(work: float) -> str:
+    """``"ray"`` when a generation of ``work`` cell-steps is worth splitting over the cores
+    (module docstring), else ``"local"``."""
+    if work < AUTO_WORK or cores() < 2 or importlib.util.find_spec("ray") is None:
+        return "local"
+    return "ray"
+
+
+def import_ray() -> Any:
+    """The ``ray`` module, or a one-line error naming the extra to install."""
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    try:
+        import ray
+    except ImportError:
+        raise MorphogenError(
+            "--executor ray needs the 'ray' package: pip install \"morphogen[ray]\""
+        ) from None
+    return ray
+
+
+def start_ray(address: str | None = None, num_cpus: int | None = None) -> Any:
+    """The ``ray`` module, connected to ``address`` or to a local Ray started here (no usage
+    statistics, no dashboard; workers single-threaded, :data:`SINGLE_THREAD`)."""
+    ray = import_ray()
+    if not ray.is_initialized():
+        env = {} if address or "XLA_FLAGS" in os.environ else {"XLA_FLAGS": SINGLE_THREAD}
+        try:
+            ray.init(address=address, num_cpus=num_cpus, include_dashboard=False,
+                     log_to_driver=False, configure_logging=False,
+                     runtime_env={"env_vars": env} if env else None)
+        except (ConnectionError, RuntimeError, ValueError) as exc:
+            raise MorphogenError(f"cannot start or reach {address or 'a local Ray'}: "
+                                 f"{exc}") from None
+    return ray
 
 
 class LocalExecutor:
@@ -63,24 +119,11 @@ class RayExecutor:
 
     def __init__(self, problem: Problem, *, address: str | None = None,
                  batches: int | None = None, num_cpus: int | None = None):
-        os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-        try:
-            import ray
-        except ImportError:
-            raise MorphogenError(
-                "--executor ray needs the 'ray' package: pip install \"morphogen[ray]\""
-            ) from None
-        self._ray = ray
+        import_ray()
         self.problem = problem
         self._json = json.dumps(problem.to_dict(), sort_keys=True)
         Evaluator(problem)  # validate here, before any task is sent
-        if not ray.is_initialized():
-            try:
-                ray.init(address=address, num_cpus=num_cpus, include_dashboard=False,
-                         log_to_driver=False, configure_logging=False)
-            except (ConnectionError, RuntimeError, ValueError) as exc:
-                where = address or "a local Ray"
-                raise MorphogenError(f"cannot start or reach {where}: {exc}") from None
+        self._ray = ray = start_ray(address, num_cpus)
         cpus = int(ray.cluster_resources().get("CPU", 1))
         if batches is not None and batches < 1:
             raise MorphogenError(f"--batches must be >= 1, got {batches}")
@@ -145,12 +188,16 @@ Executor = LocalExecutor | RayExecutor | GradientExecutor
 
 
 def make_executor(name: str, problem: Problem, *, gradient: bool = False,
-                  **options: Any) -> Executor:
+                  population: int = 1, **options: Any) -> Executor:
     """An executor by name (:data:`EXECUTORS`); ``options`` go to :class:`RayExecutor`.
 
-    ``gradient=True`` (for the gradient strategy) gives a :class:`GradientExecutor`, which runs
-    in this process only.
+    ``auto`` chooses by the work of a generation of ``population`` individuals
+    (:func:`auto_executor`). ``gradient=True`` (for the gradient strategy) gives a
+    :class:`GradientExecutor`, which runs in this process only.
     """
+    if name == "auto":
+        work = population * int(np.prod(problem.size)) * problem.steps
+        name = "local" if gradient else auto_executor(work)
     if gradient:
         if name != "local":
             raise MorphogenError(

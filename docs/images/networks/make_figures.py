@@ -1,21 +1,29 @@
-"""Run the two experiments of Yamamoto et al. at a reduced size and make docs/networks.md's figures.
+"""Run the two experiments of Yamamoto et al. at the seed's budget and make docs/networks.md's
+figures.
 
-    python docs/images/networks/make_figures.py RUNS_DIR
+    python docs/images/networks/make_figures.py RUNS_DIR [--runs N] [--workers W] [--plot-only]
 
 Experiment 1 (§4.1, rates of the Table-2 network) and Experiment 2 (§4.2, n = 3, m ≤ 12,
-networks evolved), :data:`RUNS` runs each (seeds 1, 2, …), at the reduced budget :data:`BUDGET`
-(Table 1 is 150 individuals, 100 generations, Δt = 0.1, 10 rounds from t = 2000). Run folders go
-to ``RUNS_DIR/exp1-seedS`` and ``RUNS_DIR/exp2-seedS``; finished runs are not run again and
-unfinished ones are resumed. Then the figures: best fitness per generation, one curve per run
-(the seed's figs. 3 and 5), the best pattern of each experiment and of the hand-made network as
-A/B/C heat maps with colour bars (figs. 1, 4, 6), and the best Experiment-2 network's reaction
-table next to its drawing.
+networks evolved), ``N`` runs each (seeds 1, 2, …; default :data:`RUNS`), at the full Table-1
+budget :data:`BUDGET` and evaluation :data:`EVAL` (150 individuals, 100 generations, 32²,
+Δt = 0.1, 10 rounds from t = 2000 every 200, tournament 2). Run folders go to
+``RUNS_DIR/exp1-seedS`` and ``RUNS_DIR/exp2-seedS``; finished runs are not run again and
+unfinished ones are resumed. ``W`` runs go at once, each in its own single-threaded process (one
+per core). Every generation's CPU-seconds (``time.process_time`` of its process) and wall
+seconds are appended to ``RUNS_DIR/<run>/times.txt``.
+
+Then the figures: best fitness per generation, one curve per run (the seed's figs. 3 and 5),
+the best pattern of each experiment and of the hand-made network as A/B/C heat maps with colour
+bars (figs. 1, 4, 6), and the best Experiment-2 network's reaction table next to its drawing.
 """
 
 from __future__ import annotations
 
+import argparse
 import io
-import sys
+import multiprocessing
+import os
+import time
 from pathlib import Path
 
 import jax
@@ -48,9 +56,10 @@ from morphogen.search.networks.genome import (  # noqa: E402
 from morphogen.search.networks.operators import Operators  # noqa: E402
 
 HERE = Path(__file__).parent
-RUNS = 10
-BUDGET = {"population": 20, "generations": 16}
-EVAL = Evaluation(size=24, dt=0.5, t_start=800.0, interval=200.0, rounds=2)
+RUNS = 3
+BUDGET = {"population": 150, "generations": 100}
+EVAL = Evaluation()
+SINGLE_THREAD = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
 
 
 def experiment(number: int) -> tuple[NetworkSpec, object, Operators]:
@@ -63,24 +72,49 @@ def experiment(number: int) -> tuple[NetworkSpec, object, Operators]:
     return spec, make_genome(spec, [0.0] * spec.m_max), Operators(mode="network")
 
 
-def run_all(root: Path) -> None:
-    """Every run of both experiments that is not finished yet."""
-    for seed in range(1, RUNS + 1):
-        for number in (1, 2):
-            spec, template, ops = experiment(number)
-            out = root / f"exp{number}-seed{seed}"
-            done = completed(out)
-            if done >= BUDGET["generations"]:
-                continue
-            print(f"experiment {number}, seed {seed}", flush=True)
-            run(spec, template, out, ops=ops, ev=EVAL, seed=seed, resume=done > 0,
-                log=lambda s: print("  " + s, flush=True), **BUDGET)
+def one_run(out: Path, number: int, seed: int) -> str:
+    """Run (or resume) one experiment run, logging every generation with its times."""
+    spec, template, ops = experiment(number)
+    done = completed(out)
+    clock = [time.process_time(), time.perf_counter()]
+    out.mkdir(parents=True, exist_ok=True)
+
+    def log(line: str) -> None:
+        cpu, wall = time.process_time(), time.perf_counter()
+        line = f"{line}, {cpu - clock[0]:.1f} CPU-s, {wall - clock[1]:.1f} s"
+        clock[:] = [cpu, wall]
+        with open(out / "times.txt", "a") as f:
+            f.write(line + "\n")
+        print(f"{out.name}: {line}", flush=True)
+
+    run(spec, template, out, ops=ops, ev=EVAL, seed=seed, resume=done > 0, log=log, **BUDGET)
+    return out.name
+
+
+def _one_run(args: tuple[Path, int, int]) -> str:
+    return one_run(*args)
+
+
+def run_all(root: Path, runs: int, workers: int) -> None:
+    """Every run of both experiments that is not finished yet, ``workers`` at a time (the
+    longer Experiment-2 runs first, so the workers finish together)."""
+    todo = [(root / f"exp{number}-seed{seed}", number, seed)
+            for seed in range(1, runs + 1) for number in (2, 1)
+            if completed(root / f"exp{number}-seed{seed}") < BUDGET["generations"]]
+    if workers <= 1:
+        for task in todo:
+            one_run(*task)
+        return
+    with multiprocessing.get_context("spawn").Pool(workers, maxtasksperchild=1) as pool:
+        for name in pool.imap_unordered(_one_run, todo):
+            print(f"{name}: finished", flush=True)
 
 
 def finished(root: Path, number: int) -> list[Path]:
     """The finished run folders of an experiment, by seed."""
-    return [root / f"exp{number}-seed{s}" for s in range(1, RUNS + 1)
-            if completed(root / f"exp{number}-seed{s}") >= BUDGET["generations"]]
+    return sorted((p for p in root.glob(f"exp{number}-seed*")
+                   if completed(p) >= BUDGET["generations"]),
+                  key=lambda p: int(p.name.rsplit("seed", 1)[1]))
 
 
 def fitness_figure(root: Path, number: int) -> None:
@@ -186,7 +220,13 @@ def make_figures(root: Path) -> None:
 
 
 if __name__ == "__main__":
-    runs_dir = Path(sys.argv[1] if len(sys.argv) > 1 else "runs/networks-figures")
-    if "--plot-only" not in sys.argv:
-        run_all(runs_dir)
-    make_figures(runs_dir)
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("runs_dir", nargs="?", type=Path, default=Path("runs/networks-figures"))
+    parser.add_argument("--runs", type=int, default=RUNS)
+    parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument("--plot-only", action="store_true")
+    args = parser.parse_args()
+    if not args.plot_only:
+        os.environ.setdefault("XLA_FLAGS", SINGLE_THREAD)
+        run_all(args.runs_dir, args.runs, args.workers)
+    make_figures(args.runs_dir)

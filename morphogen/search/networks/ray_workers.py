@@ -7,13 +7,13 @@ order. The generation loop, its random stream and ``state.npz`` stay in the call
 so a Ray run breeds exactly as a local one; the fitness equals the local one up to float
 rounding of differently batched compiled programs.
 
-As :class:`morphogen.search.executors.RayExecutor`: ``address=None`` starts a local Ray,
-without usage statistics or dashboard; ``batches`` defaults to one per CPU of the cluster.
+As :class:`morphogen.search.executors.RayExecutor` (:func:`~morphogen.search.executors.start_ray`):
+``address=None`` starts a local Ray, without usage statistics or dashboard, its workers
+single-threaded; ``batches`` defaults to one per CPU of the cluster.
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from morphogen.errors import MorphogenError
+from morphogen.search.executors import start_ray
 from morphogen.search.networks.genome import Genome, NetworkSpec
 
 
@@ -46,22 +47,9 @@ class RayNetworkEvaluator:
 
     def __init__(self, *, address: str | None = None, batches: int | None = None,
                  num_cpus: int | None = None):
-        os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-        try:
-            import ray
-        except ImportError:
-            raise MorphogenError("--executor ray needs the 'ray' package: "
-                                 "pip install \"morphogen[ray]\"") from None
         if batches is not None and batches < 1:
             raise MorphogenError(f"--batches must be >= 1, got {batches}")
-        self._ray = ray
-        if not ray.is_initialized():
-            try:
-                ray.init(address=address, num_cpus=num_cpus, include_dashboard=False,
-                         log_to_driver=False, configure_logging=False)
-            except (ConnectionError, RuntimeError, ValueError) as exc:
-                raise MorphogenError(f"cannot start or reach {address or 'a local Ray'}: "
-                                     f"{exc}") from None
+        self._ray = ray = start_ray(address, num_cpus)
         self.batches = batches or max(1, int(ray.cluster_resources().get("CPU", 1)))
         self._task = ray.remote(num_cpus=1)(_evaluate_batch)
 
