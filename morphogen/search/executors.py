@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import os
 from collections.abc import Callable
 from typing import Any
 
@@ -25,6 +24,7 @@ import numpy as np
 
 from morphogen.errors import MorphogenError
 from morphogen.search.evaluate import Evaluator, Problem, cached_evaluator, individual_keys
+from morphogen.util.cluster import cores, import_ray, start_ray
 
 Update = Callable[[int], None]
 EXECUTORS = ("auto", "local", "ray")
@@ -32,14 +32,6 @@ AUTO_WORK = 2e9
 """Cell-steps per generation from which ``auto`` splits a generation over Ray workers (about 5
 CPU-seconds: Ray's start and each worker's compilation, a few seconds once, are then repaid
 within the first generations)."""
-SINGLE_THREAD = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
-"""``XLA_FLAGS`` of the workers of a local Ray (unless the caller set ``XLA_FLAGS``): one
-thread each, one worker per core."""
-
-
-def cores() -> int:
-    """CPUs this process may run on."""
-    return len(os.sched_getaffinity(0))
 
 
 def auto_executor(work: float) -> str:
@@ -48,34 +40,6 @@ def auto_executor(work: float) -> str:
     if work < AUTO_WORK or cores() < 2 or importlib.util.find_spec("ray") is None:
         return "local"
     return "ray"
-
-
-def import_ray() -> Any:
-    """The ``ray`` module, or a one-line error naming the extra to install."""
-    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-    try:
-        import ray
-    except ImportError:
-        raise MorphogenError(
-            "--executor ray needs the 'ray' package: pip install \"morphogen[ray]\""
-        ) from None
-    return ray
-
-
-def start_ray(address: str | None = None, num_cpus: int | None = None) -> Any:
-    """The ``ray`` module, connected to ``address`` or to a local Ray started here (no usage
-    statistics, no dashboard; workers single-threaded, :data:`SINGLE_THREAD`)."""
-    ray = import_ray()
-    if not ray.is_initialized():
-        env = {} if address or "XLA_FLAGS" in os.environ else {"XLA_FLAGS": SINGLE_THREAD}
-        try:
-            ray.init(address=address, num_cpus=num_cpus, include_dashboard=False,
-                     log_to_driver=False, configure_logging=False,
-                     runtime_env={"env_vars": env} if env else None)
-        except (ConnectionError, RuntimeError, ValueError) as exc:
-            raise MorphogenError(f"cannot start or reach {address or 'a local Ray'}: "
-                                 f"{exc}") from None
-    return ray
 
 
 class LocalExecutor:

@@ -7,7 +7,7 @@ order. The generation loop, its random stream and ``state.npz`` stay in the call
 so a Ray run breeds exactly as a local one; the fitness equals the local one up to float
 rounding of differently batched compiled programs.
 
-As :class:`morphogen.search.executors.RayExecutor` (:func:`~morphogen.search.executors.start_ray`):
+As :class:`morphogen.search.executors.RayExecutor` (:func:`~morphogen.util.cluster.start_ray`):
 ``address=None`` starts a local Ray, without usage statistics or dashboard, its workers
 single-threaded; ``batches`` defaults to one per CPU of the cluster.
 """
@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.search.executors import start_ray
 from morphogen.search.networks.genome import Genome, NetworkSpec
+from morphogen.util.cluster import start_ray
 
 
 def _evaluate_batch(spec: dict[str, Any], ev: dict[str, Any], genomes: tuple[np.ndarray, ...],
