@@ -85,3 +85,26 @@ def test_bad_family_requests_are_one_line(client, change, fragment):
     r = client.post("/api/atlas", json={**BODY, **change})
     assert r.status_code == 400 and fragment in r.json()["error"]
     assert "\n" not in r.json()["error"]
+
+
+def test_unstable_tiles_are_reported_and_hatched(client):
+    """Gray-Scott at k = 0 ends in a checkerboard at dt = 1 (tests/test_atlas_unstable.py):
+    those tiles are not valid, the result carries the one-line report, and the mosaic hatches
+    them (white stripes) while the sound tiles keep their colours."""
+    from morphogen.web.batch import HATCH
+
+    res = _done(client, {"x": {"name": "F", "lo": 0.01, "hi": 0.07, "n": 2},
+                         "y": {"name": "k", "lo": 0.0, "hi": 0.05, "n": 2}, "tile": 24,
+                         "steps": 1500, "dt": 1.0})
+    assert res["valid"] == [[True, True], [False, False]]  # rows from the top: k = 0.05 first
+    assert res["unstable"].startswith("2 of 4 tiles were numerically unstable at dt=1")
+    image = iio.imread(client.get(res["image"]).content)[..., :3]
+    period, width = HATCH
+    cell = res["tile"] + res["pad"]
+    stripes = np.add.outer(np.arange(24), np.arange(24)) % period < width
+    for i in range(2):
+        for j in range(2):
+            top, left = res["pad"] + i * cell, res["pad"] + j * cell
+            tile = image[top:top + 24, left:left + 24]
+            white = (tile == 255).all(axis=-1)
+            assert white[stripes].all() == (not res["valid"][i][j]), (i, j)

@@ -119,3 +119,70 @@ def test_automatic_fitness_reports_progress_and_stop_works(setup):
     s = wait(client, run, ("stopped", "done"))
     assert s["state"] == "stopped" and {1, 2} <= seen
     assert client.get("/api/evolve/unknown").status_code == 400
+
+
+def test_map_elites_refuses_favourites_in_one_line(setup):
+    client, _ = setup
+    for strategy in ("map-elites", "cvt-map-elites"):
+        r = client.post("/api/evolve", json={"model": {"library": "gray-scott"}, "population": 4,
+                                             "generations": 2, "size": 16, "steps": 20,
+                                             "fitness": "user", "strategy": strategy})
+        assert r.status_code == 400
+        error = r.json()["error"]
+        assert "\n" not in error and "MAP-Elites" in error and "automatic fitness" in error
+
+
+@pytest.mark.slow
+def test_status_carries_the_settings_and_a_stopped_choice_keeps_its_pictures(setup):
+    """A reloaded page restores the run's own settings from its status; a run stopped while
+    its favourites were being chosen still shows that generation's pictures."""
+    client, _ = setup
+    genes = [{"name": "F", "low": 0.02, "high": 0.03, "sigma": 0.001}]
+    body = {"model": {"library": "gray-scott"}, "population": 3, "generations": 4, "size": 16,
+            "steps": 20, "dt": 0.5, "seed": 5, "init": "noise", "fitness": "user",
+            "strategy": "ga", "genes": genes}
+    run = client.post("/api/evolve", json=body).json()["run"]
+    status = wait(client, run, ("choose",))
+    settings = status["settings"]
+    assert settings == {"kind": "params", "model": {"library": "gray-scott"}, "strategy": "ga",
+                        "fitness": "user", "population": 3, "generations": 4, "size": 16,
+                        "steps": 20, "dt": 0.5, "seed": 5, "init": "noise", "genes": genes}
+    # what opens an individual in Explore (the parameters that are not genes: none set here)
+    assert status["explore"] == {"model": {"library": "gray-scott"}, "init": "noise", "seed": 5,
+                                 "size": 16, "params": {}}
+    client.post(f"/api/evolve/{run}/stop").raise_for_status()
+    stopped = wait(client, run, ("stopped",))
+    assert stopped["state"] == "stopped" and stopped["gen"] == 1
+    assert stopped["images"] == status["images"] and len(stopped["params"]) == 3
+    assert client.get(stopped["images"][2]).content[:4] == b"\x89PNG"
+    assert stopped["settings"] == settings
+
+
+def test_network_runs_list_only_valid_networks_and_label_uniform_fields(tmp_path):
+    """Invalid networks (left the bounds or blew up) are counted, never listed among the
+    fittest; a fittest network whose activator ends flat is marked uniform."""
+    from morphogen.search.fitness import INVALID
+    from morphogen.web.limits import Limits
+    from morphogen.web.network_runs import start_network_run
+
+    archive = Archive(tmp_path / "index.sqlite")
+    run = start_network_run({"mode": "rates", "population": 4, "size": 8, "generations": 1},
+                            Limits(), archive)
+    s = run.settings
+    pop = type(s.template)(*(np.stack([np.asarray(x)] * 4) for x in s.template))
+    n = len(s.spec.species)
+    final = np.zeros((4, n, 8, 8), np.float32)
+    final[1] = 0.7  # uniform
+    final[2] = np.random.default_rng(0).uniform(0, 2, (n, 8, 8))  # patterned
+    run._final = final
+    run._show(1, pop, np.array([INVALID, 0.0, 0.5, INVALID], np.float32))
+    status = run.to_json()
+    assert [b["idx"] for b in status["best"]] == [2, 1] and status["invalid"] == 2
+    assert [b["uniform"] for b in status["best"]] == [False, True]
+    assert all(b["fitness"] is not None and b["fitness"] > INVALID for b in status["best"])
+    assert status["settings"] == {"kind": "rates", "population": 4, "generations": 1, "seed": 0,
+                                  "size": 8, "dt": 0.1, "t_start": 100.0, "interval": 25.0,
+                                  "rounds": 3}
+    # a generation with no valid network lists none and counts them all
+    run._show(2, pop, np.full(4, INVALID, np.float32))
+    assert run.to_json()["best"] == [] and run.to_json()["invalid"] == 4

@@ -85,6 +85,7 @@ def match(
     out: str | Path | None = None,
     progress: bool = False,
     log: Callable[[str], Any] | None = None,
+    report: Callable[[int, int], Any] | None = None,
 ) -> MatchResult:
     """Find the models, parameters and scale that grow a pattern like ``image``.
 
@@ -99,6 +100,10 @@ def match(
         top: number of candidates in the answer.
         out: answer directory (resumable; see the module docstring); ``None`` writes nothing.
         progress: show a progress bar with ETA on standard error.
+        log: receives the lines the command prints (the target's description first).
+        report: told ``(done, total)`` simulations after every population and verification
+            run (``total`` is ``budget + top + 1``, as the progress bar counts); an exception
+            it raises stops the match (the web app's cancel), leaving what ``out`` resumes from.
 
     Raises:
         MorphogenError: bad picture, model, gene, option or output directory (nothing written).
@@ -129,16 +134,25 @@ def match(
     say = log or (lambda _line: None)
     say(f"target: {target.family}, wavelength {target.wavelength * picture.scale:.1f} px; "
         f"searching {', '.join(b.model for b in boxes)} ({budget} simulations)")
-    bar = ProgressBar(int(budget) + int(top) + 1, enabled=progress, unit="sim", desc="match")
+    total = int(budget) + int(top) + 1
+    bar = ProgressBar(total, enabled=progress, unit="sim", desc="match")
+    done = 0
+
+    def tick(n: int) -> None:
+        nonlocal done
+        bar.update(n)
+        done += n
+        if report is not None:
+            report(min(done, total), total)
+
     try:
         samples = run_search(boxes, target, picture.field, budget=Budget(int(budget), minutes),
-                             journal=journal, polarity=polarity, seed=int(seed),
-                             progress=bar.update)
+                             journal=journal, polarity=polarity, seed=int(seed), progress=tick)
         if not any(d < 5.0 for d in samples.distance):
             raise MorphogenError("no candidate formed a pattern; raise --budget or name other "
                                  "--models")
         candidates = answer(samples, boxes, target, picture.field.shape, picture.scale,
-                            top=int(top), seed=int(seed), journal=journal, progress=bar.update)
+                            top=int(top), seed=int(seed), journal=journal, progress=tick)
     finally:
         bar.close()
     seconds = time.perf_counter() - started

@@ -33,6 +33,7 @@ from morphogen.web import (
     guards,
     info,
     jobs,
+    match_routes,
     mesh_routes,
     runs_routes,
 )
@@ -122,7 +123,7 @@ def create_app(
         return JSONResponse({"error": str(exc)}, status_code=400)
 
     for module in (info, explore, atlas_routes, jobs, evolve_routes, runs_routes, case_study_routes,
-                   mesh_routes, export_routes):
+                   mesh_routes, export_routes, match_routes):
         app.include_router(module.router)
 
     @app.get("/", include_in_schema=False)

@@ -8,6 +8,12 @@ image without labels: tile ``(i, j)`` (row ``i`` from the top, column ``j``) sit
 ``(pad + j (tile + pad), pad + i (tile + pad))``, so the page maps a click to a tile exactly and
 draws the axes itself. Row 0 is the largest ``y`` (``y`` grows upwards, as on a plot).
 
+A tile that blew up or ended in a grid-scale checkerboard is numerically unstable at the
+atlas's ``dt``, not a pattern: ``valid`` is false there, the mosaic hatches it
+(:func:`morphogen.web.batch.hatch`) and ``unstable`` is the one-line report of
+:func:`morphogen.runs.atlas.instability_report` (the page counts those tiles and names them on
+hover).
+
 With ``"families": true`` the atlas keeps each tile's last states and names its pattern family
 (Richard et al. §5.2.2, fig. 9) with the functions of ``morphogen atlas --classify``:
 :func:`morphogen.runs.atlas.classify_atlas` on the shown species, each tile framed in its family's

@@ -37,6 +37,22 @@ def settings(body: Mapping[str, Any], model: Model, base: Mapping[str, float], l
     return {**run, "tile": tile, "dt": float(dt), **steps}
 
 
+HATCH = (6, 2)
+"""Hatching of a tile drawn as not a pattern: white diagonal stripes, ``2`` pixels of every
+``6`` (pixels with ``(row + col) mod 6 < 2``)."""
+
+
+def hatch(tiles: np.ndarray, marked: np.ndarray) -> np.ndarray:
+    """A copy of ``tiles`` ``(B, H, W, 3)`` uint8 with the ``marked`` ``(B,)`` ones hatched in
+    white (:data:`HATCH`)."""
+    period, width = HATCH
+    h, w = tiles.shape[1:3]
+    stripes = (np.add.outer(np.arange(h), np.arange(w)) % period) < width
+    out = np.array(tiles, copy=True)
+    out[np.asarray(marked, bool)[:, None, None] & stripes[None]] = 255
+    return out
+
+
 def mosaic(states: np.ndarray, model: Model, species: str, cmap: str,
            shape: tuple[int, int], pad: int, valid: np.ndarray | None = None,
            labels: np.ndarray | None = None,
@@ -45,14 +61,15 @@ def mosaic(states: np.ndarray, model: Model, species: str, cmap: str,
     pixels between tiles: ``(rows (n + pad) + pad, cols (n + pad) + pad, 3)`` uint8.
 
     All tiles share one colour scale, the range of the valid members (``valid`` ``(B,)``);
-    blown-up members show in the NaN colour. With ``labels`` ``(B,)`` (e.g. pattern families)
-    every tile is framed in its label's colour from ``colours``
-    (:func:`morphogen.render.mosaic.frame_tiles`, frames only: the page names them).
+    blown-up members show in the NaN colour, and every member that is not valid (blown up, or
+    numerically unstable) is hatched (:func:`hatch`), so it never passes for a pattern. With
+    ``labels`` ``(B,)`` (e.g. pattern families) every tile is framed in its label's colour from
+    ``colours`` (:func:`morphogen.render.mosaic.frame_tiles`, frames only: the page names them).
     """
     fields = np.asarray(states[:, model.species_index(species)], np.float64)
     ok = np.ones(len(fields), bool) if valid is None else np.asarray(valid, bool)
     lo, hi = colour_limits(fields[ok] if ok.any() else fields)
-    tiles = np.stack([colourise(f, cmap, lo, hi) for f in fields])
+    tiles = hatch(np.stack([colourise(f, cmap, lo, hi) for f in fields]), ~ok)
     if labels is not None:
         tiles = frame_tiles(tiles, np.asarray(labels), colours or {}, text=False)
     rows, cols = shape

@@ -6,7 +6,10 @@ With human fitness (``fitness="user"``), ``evolve`` asks for a selection after e
 generation; here that call waits until the page posts the chosen indices, which become the
 fitness of Skaggs eq. 3.9 (:func:`morphogen.search.fitness.human_fitness`). The page polls the
 run's status (``running`` with progress, ``choose`` with the generation's pictures, ``done``,
-``stopped`` or ``error``).
+``stopped`` or ``error``), and every status carries the run's settings, so a page reloaded
+while a run exists shows that run's model, genes and sizes instead of its defaults. A run
+stopped while its favourites were being chosen keeps that generation's pictures in its status
+(evaluated, never chosen, so not in the archive): the page goes on showing them.
 
 A run that waits for a choice longer than ``Limits.session_idle_s`` stops; it stays in the
 archive and ``morphogen evolve --resume RUN`` continues it.
@@ -28,6 +31,7 @@ from morphogen.search.evaluate import Problem
 from morphogen.search.executors import LocalExecutor
 from morphogen.search.fitness import check_selection
 from morphogen.search.run import evolve
+from morphogen.web.runs_routes import explore_settings
 
 MAX_ACTIVE = 4
 """Runs advancing at once (each holds a thread while it simulates or waits for a choice)."""
@@ -70,6 +74,7 @@ class EvolveRun:
     total: int
     population: int
     idle_s: float
+    strategy: str = "ga"
     state: str = "running"  # running | choose | done | stopped | error
     gen: int = 1
     progress: float = 0.0
@@ -77,6 +82,7 @@ class EvolveRun:
     error: str | None = None
     log: list[str] = field(default_factory=list)
     genomes: np.ndarray | None = None  # the generation being evaluated or chosen from
+    _asking: int | None = None  # the generation whose favourites were asked for, until chosen
     _chosen: list[int] | None = None
     _wake: threading.Event = field(default_factory=threading.Event)
     _stop: threading.Event = field(default_factory=threading.Event)
@@ -105,12 +111,12 @@ class EvolveRun:
         self.message = f"generation {self.gen}: choose your favourites"
         self._chosen = None
         self._wake.clear()
-        self.state = "choose"
+        self.state, self._asking = "choose", self.gen
         if not self._wake.wait(self.idle_s) and self._chosen is None:
             self._stop.set()
         if self._stop.is_set():
             raise Stopped("stopped while waiting for a choice")
-        self.state = "running"
+        self.state, self._asking = "running", None
         return self._chosen or []
 
     def thread_main(self) -> None:
@@ -121,15 +127,27 @@ class EvolveRun:
 
         run_to_end(self, body)
 
+    def controls(self) -> dict[str, Any]:
+        """The run's settings as the Evolve page's controls hold them."""
+        p = self.problem
+        model = {"equations": p.model_source} if p.model_source else {"library": p.model}
+        return {"kind": "params", "model": model, "strategy": self.strategy,
+                "fitness": p.fitness, "population": self.population, "generations": self.total,
+                "size": int(max(p.size)), "steps": p.steps, "dt": p.dt, "seed": p.seed,
+                "init": p.init, "genes": [g.to_dict() for g in p.genes]}
+
     def to_json(self) -> dict[str, Any]:
-        """Status for the page; while waiting for a choice, the pictures to choose from."""
+        """Status for the page: progress, the settings, what opens an individual in Explore
+        (``explore``, with the parameters that are not genes); while waiting for a choice, or
+        stopped while waiting, the pictures of that generation."""
         out = {
             "run": self.run_id, "state": self.state, "gen": self.gen, "total": self.total,
             "population": self.population, "progress": round(self.progress, 4),
             "message": self.message, "error": self.error, "log": self.log[-5:],
-            "fitness": self.problem.fitness,
+            "fitness": self.problem.fitness, "settings": self.controls(),
+            "explore": {**explore_settings(self.problem), "params": dict(self.problem.params)},
         }
-        if self.state == "choose":
+        if self.state == "choose" or (self.state == "stopped" and self._asking == self.gen):
             out["images"] = [
                 f"/api/runs/{self.run_id}/files/generations/gen_{self.gen:03d}/ind_{i:02d}.png"
                 for i in range(self.population)
@@ -181,7 +199,9 @@ class EvolveRuns:
 
     def launch(self, archive: Archive, run_id: str, problem: Problem, total: int,
                population: int) -> EvolveRun:
-        return self.add(EvolveRun(run_id, archive, problem, total, population, self.idle_s))
+        strategy = archive.run(run_id)["config"]["strategy"]["name"]
+        return self.add(EvolveRun(run_id, archive, problem, total, population, self.idle_s,
+                                  strategy))
 
     def check_capacity(self) -> None:
         """Refuse a new run while :data:`MAX_ACTIVE` runs are in progress."""

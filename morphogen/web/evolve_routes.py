@@ -39,6 +39,9 @@ MAX_GENERATIONS = 200
 EVOLVE_SETTINGS = ("params", "size", "dx", "boundary", "stencil", "dt", "steps", "seed", "init")
 """The run settings an Evolve request takes from its body."""
 MAX_GENES = 128
+QUALITY_DIVERSITY = ("map-elites", "cvt-map-elites")
+"""Strategies that keep an elite per descriptor cell: they need a fitness that compares any two
+individuals, which a person's favourites of one generation are not."""
 
 
 def default_genes(model: Model) -> list[Gene]:
@@ -107,6 +110,10 @@ def build(body: dict[str, Any], limits: Limits) -> tuple[Problem, dict[str, Any]
     check_budget(size * size, steps, population, limits)
     fitness = choice(body.get("fitness", "user"), "fitness", FITNESS)
     strategy = choice(body.get("strategy", "ga"), "strategy", SEARCH_STRATEGIES)
+    if fitness == "user" and strategy in QUALITY_DIVERSITY:
+        raise MorphogenError("MAP-Elites keeps the fittest individual of each kind of pattern "
+                             "across generations, which favourites chosen one generation at a "
+                             "time cannot rank; choose the automatic fitness for MAP-Elites")
     problem = Problem(
         model=model.name if "library" in spec else f"{model.name}.toml",
         genes=parse_genes(body.get("genes"), model), model_source=model.source,

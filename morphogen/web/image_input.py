@@ -1,5 +1,6 @@
 """An uploaded image on the grid: a PNG's grey levels as one species' starting state or as a
-parameter's spatial field.
+parameter's spatial field; and an uploaded picture to match (:func:`decode_picture`, PNG or
+JPEG, in colour).
 
 The image is stretched over the whole grid, row 0 at the top as in the picture, and each cell
 takes a grey level ``g`` in ``[0, 1]`` (the mean of R, G, B for a colour image), which becomes
@@ -37,24 +38,65 @@ def png_size(data: bytes) -> tuple[int, int]:
     return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
 
 
+def _file_bytes(text: object, kind: str) -> bytes:
+    """Base64 text (optionally a ``data:`` URL) -> the file's bytes, at most
+    :data:`MAX_IMAGE_BYTES`."""
+    if not isinstance(text, str) or not text:
+        raise MorphogenError(f"image must be a base64-encoded {kind}")
+    try:
+        data = base64.b64decode(text.split(",", 1)[-1], validate=True)
+    except (binascii.Error, ValueError):
+        raise MorphogenError(f"image is not valid base64; send the {kind} file's bytes") from None
+    if len(data) > MAX_IMAGE_BYTES:
+        raise MorphogenError(f"the image is over {MAX_IMAGE_BYTES // 2**20} MiB; use a smaller one")
+    return data
+
+
+def _check_pixels(width: int, height: int, kind: str) -> None:
+    if width * height > MAX_IMAGE_PIXELS:
+        raise MorphogenError(f"the {kind} is {width} x {height} pixels, more than the "
+                             f"{MAX_IMAGE_PIXELS / 1e6:.3g} million accepted; reduce it first")
+
+
+def decode_picture(text: object) -> np.ndarray:
+    """Base64 PNG or JPEG text -> RGB ``(H, W, 3)`` float32 in ``[0, 1]`` (transparency over
+    white). The file's size and the pixels its header announces are checked before it is
+    decoded; anything else that is not a readable picture is one line."""
+    import io
+    import warnings
+
+    from PIL import Image
+
+    data = _file_bytes(text, "PNG or JPEG")
+    if not (data.startswith(b"\x89PNG") or data.startswith(b"\xff\xd8\xff")):
+        raise MorphogenError("the file is not a picture: send a PNG or JPEG image")
+    if data.startswith(b"\x89PNG"):
+        _check_pixels(*png_size(data), "picture")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            with Image.open(io.BytesIO(data)) as img:
+                _check_pixels(*img.size, "picture")
+                img.load()
+                rgba = np.asarray(img.convert("RGBA"), np.float32) / 255.0
+    except MorphogenError:
+        raise
+    except (Image.DecompressionBombError, Image.DecompressionBombWarning):
+        raise MorphogenError("the picture is too large to decode safely; reduce it first") from None
+    except Exception:  # a malformed file must come back as one line, whatever the decoder says
+        raise MorphogenError("the picture could not be read; is the file complete?") from None
+    alpha = rgba[..., 3:]
+    return rgba[..., :3] * alpha + (1.0 - alpha)
+
+
 def decode_png(text: object) -> np.ndarray:
     """Base64 PNG text -> grey levels ``(H, W)`` float32 in ``[0, 1]``."""
     import imageio.v3 as iio
 
-    if not isinstance(text, str) or not text:
-        raise MorphogenError("image must be a base64-encoded PNG")
-    try:
-        data = base64.b64decode(text.split(",", 1)[-1], validate=True)
-    except (binascii.Error, ValueError):
-        raise MorphogenError("image is not valid base64; send the PNG file's bytes") from None
-    if len(data) > MAX_IMAGE_BYTES:
-        raise MorphogenError(f"the image is over {MAX_IMAGE_BYTES // 2**20} MiB; use a smaller one")
+    data = _file_bytes(text, "PNG")
     if not data.startswith(b"\x89PNG"):
         raise MorphogenError("only PNG images are accepted; save the picture as PNG")
-    width, height = png_size(data)
-    if width * height > MAX_IMAGE_PIXELS:
-        raise MorphogenError(f"the PNG is {width} x {height} pixels, more than the "
-                             f"{MAX_IMAGE_PIXELS / 1e6:.3g} million accepted; reduce it first")
+    _check_pixels(*png_size(data), "PNG")
     try:
         img = np.asarray(iio.imread(data, extension=".png"))
     except Exception:  # a malformed file must come back as one line, whatever the decoder says

@@ -12,6 +12,12 @@ those pictures, and opens an individual in Explore as its exported model file
 (:func:`morphogen.search.networks.export.genome_network`), started from noise around 1 (the
 middle of the evaluation's uniform ``[0, 2)`` initial state, §3.1) on the same grid, or on
 Explore's smallest if the run's is smaller.
+
+Only valid individuals are listed among the fittest: one that left the bounds or blew up
+(fitness ``INVALID``, its state zeroed) is counted in ``invalid`` instead, so a generation with
+fewer valid networks than :data:`SHOWN` shows fewer, and one with none says so. A fittest
+network whose activator ends uniform (spread within the staged fitness's flat tolerance) is
+marked ``uniform``, so its flat picture is labelled, not an unexplained blank tile.
 """
 
 from __future__ import annotations
@@ -30,6 +36,8 @@ from morphogen.search.fitness import INVALID
 from morphogen.web.evolution import Stopped, run_to_end
 from morphogen.web.limits import Limits, check_budget, choice, integer, number
 
+FLAT_TOL = 1e-3
+"""Relative spread below which a field counts as uniform (the staged fitness's ``flat_tol``)."""
 SHOWN = 3
 """Fittest individuals shown after each generation (a genome already drawn is not drawn
 again: the elite usually survives)."""
@@ -106,6 +114,7 @@ class NetworkRun:
     error: str | None = None
     log: list[str] = field(default_factory=list)
     best: list[dict[str, Any]] = field(default_factory=list)
+    invalid: int = 0  # individuals of the generation shown that left the bounds or blew up
     _final: Any = None
     _done: int = 0
     _stop: threading.Event = field(default_factory=threading.Event)
@@ -173,15 +182,16 @@ class NetworkRun:
         folder = self.out / "web"
         folder.mkdir(exist_ok=True)
         best = []
-        for rank, idx in enumerate(np.argsort(-fitness, kind="stable")[:SHOWN]):
+        valid = np.flatnonzero(fitness > INVALID)
+        ranked = valid[np.argsort(-fitness[valid], kind="stable")][:SHOWN]
+        for rank, idx in enumerate(ranked):
             genome = Genome(*(np.asarray(x[idx]) for x in pop))
+            field_ = np.asarray(self._final[idx][s.ev.activator])
             entry: dict[str, Any] = {
-                "idx": int(idx), "fitness": None if fitness[idx] <= INVALID
-                else float(fitness[idx]),
+                "idx": int(idx), "fitness": float(fitness[idx]), "uniform": uniform(field_),
                 "reactions": [f"{r['reaction']}  k = {r['k']:g}"
                               for r in describe(genome, s.spec) if r["k"]],
             }
-            field_ = np.asarray(self._final[idx][s.ev.activator])
             # a new name each generation: a file replaced while being served would arrive cut
             pattern = folder / f"pattern_{gen:03d}_{rank}.png"
             write_png(pattern, state_image(field_, scale=max(1, 128 // s.ev.size)))
@@ -200,7 +210,7 @@ class NetworkRun:
             except MorphogenError as exc:  # e.g. every rate zero: nothing to draw or run
                 entry["network"], entry["explore"], entry["note"] = None, None, str(exc)
             best.append(entry)
-        self.best = best
+        self.best, self.invalid = best, int(len(fitness) - len(valid))
 
     def _url(self, path: Path) -> str:
         """The page's address of a file of the run."""
@@ -213,8 +223,22 @@ class NetworkRun:
             "state": self.state, "gen": self.gen, "total": self.total,
             "population": self.population, "progress": round(self.progress, 4),
             "message": self.message, "error": self.error, "log": self.log[-5:],
-            "fitness": "cluster", "best": self.best,
+            "fitness": "cluster", "best": self.best, "invalid": self.invalid,
+            "settings": self.controls(),
         }
+
+    def controls(self) -> dict[str, Any]:
+        """The run's settings as the Evolve page's controls hold them."""
+        s = self.settings
+        return {"kind": s.mode, "population": s.population, "generations": s.generations,
+                "seed": s.seed, "size": s.ev.size, "dt": s.ev.dt, "t_start": s.ev.t_start,
+                "interval": s.ev.interval, "rounds": s.ev.rounds}
+
+
+def uniform(field_: np.ndarray) -> bool:
+    """Whether a field is flat: its spread within :data:`FLAT_TOL` of its largest value."""
+    f = np.asarray(field_, np.float64)
+    return bool(np.ptp(f) <= FLAT_TOL * max(1.0, float(np.abs(f).max())))
 
 
 def start_network_run(body: dict[str, Any], limits: Limits, archive: Archive) -> NetworkRun:

@@ -6,11 +6,13 @@
 import { writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { chromium } from 'playwright-core';
-import { measure, openRunFile, readoutAndUndo, rectangleImexRecording, resumeAndDelete, urlState } from './tools.mjs';
+import { measure, openRunFile, readoutAndUndo, rectangleImexRecording, urlState } from './tools.mjs';
 import * as features from './features.mjs';
 import * as mapElites from './map_elites.mjs';
 import * as designer from './designer.mjs';
 import * as access from './access.mjs';
+import * as results from './results.mjs';
+import { matchPanel } from './match.mjs';
 
 const [scenario, base, out] = process.argv.slice(2);
 const ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
@@ -209,54 +211,6 @@ const SCENARIOS = {
     const size = await page.evaluate(() => window.morphogenExplore.state.size);
     return { x: res.x, y: res.y, valid: res.valid, params, size, tile: res.tile,
       sizeShown: await page.inputValue('#ex-size'), staleShown, ...families };
-  },
-
-  async evolve(page) {
-    await page.goto(`${base}#evolve`);
-    await page.waitForFunction(() => Number(document.getElementById('ev-population')?.value) > 0);
-    await page.fill('#ev-population', '6');
-    await page.fill('#ev-size', '48');
-    await page.fill('#ev-steps', '2000');
-    await page.fill('#ev-generations', '3');
-    await page.click('#ev-start');
-    await page.waitForSelector('#ev-grid .tile', { timeout: 120000 });
-    await page.click('#ev-grid .tile[data-idx="1"]');
-    await page.click('#ev-grid .tile[data-idx="4"]');
-    const picked = await page.locator('#ev-grid .tile.picked').count();
-    await page.screenshot({ path: join(out, 'evolve-choose.png') });
-    const run = await page.evaluate(() => window.morphogenEvolve.status.run);
-    await page.click('#ev-next');
-    await page.waitForFunction(() => window.morphogenEvolve.status.gen === 2
-      && window.morphogenEvolve.status.state === 'choose', null, { timeout: 120000 });
-    await page.waitForTimeout(500);
-    await page.screenshot({ path: join(out, 'evolve-next.png') });
-    const runs = await page.evaluate(() => fetch('/api/runs').then((r) => r.json()));
-    const gen1 = await page.evaluate((id) => fetch(`/api/runs/${id}/generations/1`).then((r) => r.json()), run);
-    // a reload while the run waits for favourites brings it back, tiles and all
-    await page.reload();
-    await page.waitForFunction((id) => window.morphogenEvolve?.status?.run === id
-      && document.querySelectorAll('#ev-grid .tile').length === 6, run, { timeout: 60000 });
-    const reloaded = await page.evaluate(() => ({ gen: window.morphogenEvolve.status.gen,
-      state: window.morphogenEvolve.status.state, stop: !document.getElementById('ev-stop').hidden }));
-    // the Runs page offers to continue it, and its detail says nothing is "null"
-    await page.goto(`${base}#runs`);
-    await page.click(`tr[data-run="${run}"]`);
-    await page.waitForSelector('#runs-continue');
-    const detailText = await page.textContent('#runs-detail');
-    await page.click('#runs-continue');
-    await page.waitForFunction((id) => window.location.hash === '#evolve'
-      && window.morphogenEvolve?.status?.run === id
-      && document.querySelectorAll('#ev-grid .tile').length === 6, run, { timeout: 60000 });
-    const continued = await page.evaluate(() => window.morphogenEvolve.status.state);
-    await page.click('#ev-stop');
-    await page.goto(`${base}#runs`);
-    await page.click(`tr[data-run="${run}"]`);
-    await page.waitForSelector('#runs-sheet img');
-    await page.waitForTimeout(800);
-    await page.screenshot({ path: join(out, 'runs.png'), fullPage: true });
-    const actions = await resumeAndDelete(page, base, run);
-    return { ...actions, run, picked, runs: runs.runs, gen1: gen1.individuals.map((i) => i.fitness), reloaded,
-      detailText, continued };
   },
 
   async mesh(page) {
@@ -458,6 +412,9 @@ SCENARIOS.layout = async (page) => {
 
 for (const name of ['restart', 'refusals', 'schemes', 'checkpoint']) SCENARIOS[name] = (page) => designer[name](page, base, out);
 for (const name of ['axe', 'keyboard', 'phone']) SCENARIOS[name] = (page) => access[name](page, base, out);
+SCENARIOS.evolve = (page) => results.evolve(page, base, out);
+SCENARIOS.atlasunstable = (page) => results.atlasUnstable(page, base, out);
+SCENARIOS.match = (page) => matchPanel(page, base, out);
 SCENARIOS.mapelites = (page) => mapElites.mapElitesOnRuns(page, base, out);
 SCENARIOS.evolvemap = (page) => mapElites.mapElitesOnEvolve(page, base, out);
 

@@ -2,6 +2,7 @@
 // started on the Evolve page.
 
 import { join } from 'node:path';
+import { startEvolve } from './tools.mjs';
 
 // a MAP-Elites run (made by the test with the CLI) on the Runs page: map, plot, elites
 export async function mapElitesOnRuns(page, base, out) {
@@ -28,15 +29,8 @@ export async function mapElitesOnRuns(page, base, out) {
 
 // a MAP-Elites run started on the Evolve page shows its elite map and elites when done
 export async function mapElitesOnEvolve(page, base, out) {
-  await page.goto(`${base}#evolve`);
-  await page.waitForFunction(() => Number(document.getElementById('ev-population')?.value) > 0);
-  await page.selectOption('#ev-fitness', 'dirichlet');
-  await page.selectOption('#ev-strategy', 'map-elites');
-  await page.fill('#ev-population', '4');
-  await page.fill('#ev-generations', '2');
-  await page.fill('#ev-size', '16');
-  await page.fill('#ev-steps', '60');
-  await page.click('#ev-start');
+  await startEvolve(page, base, { selects: { fitness: 'dirichlet', strategy: 'map-elites' },
+                                 fields: { population: 4, generations: 2, size: 16, steps: 60 } });
   await page.waitForSelector('#ev-elites:not([hidden]) .tile', { timeout: 120000 });
   await page.waitForTimeout(500);
   await page.screenshot({ path: join(out, 'evolve-map-elites.png'), fullPage: true });

@@ -3,14 +3,14 @@
 ``ensure_browser.sh`` installs Debian's ``chromium`` and the npm package ``playwright-core``
 when they are missing; the tests skip (with the reason) only if that is impossible.
 ``browser.mjs`` performs each scenario and writes what it saw, plus screenshots, into
-``out/e2e/`` (override with ``$MORPHOGEN_E2E_OUT``); the checks are made here.
+``out/e2e/`` (override with ``$MORPHOGEN_E2E_OUT``); the checks are made here. The server and
+the driver are in ``conftest.py`` and ``browser_support.py``.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
@@ -19,83 +19,10 @@ from pathlib import Path
 import imageio.v3 as iio
 import numpy as np
 import pytest
-from web_support import TINY_PETAL
+from browser_support import HERE, MEASURE, OUT, scenario
 
 pytestmark = pytest.mark.slow
-
-HERE = Path(__file__).parent
-ROOT = HERE.parent.parent
-OUT = Path(os.environ.get("MORPHOGEN_E2E_OUT", ROOT / "out" / "e2e"))
 LAMBDA = 0.9  # Skaggs eq. 3.9
-# The speed figures of docs/web.md come from `MORPHOGEN_E2E_MEASURE=1 pytest tests/e2e -k explore`,
-# against a server that warms its models up as `morphogen serve` does, with an empty persistent
-# compilation cache of its own (so a first switch compiles); the suite skips all three.
-MEASURE = bool(os.environ.get("MORPHOGEN_E2E_MEASURE"))
-WARM_UP = [] if MEASURE else ["--no-warm-up"]
-# The Mesh page's case studies in the suite: the tiny petal pipeline and an endless one to
-# cancel; MORPHOGEN_E2E_EXAMPLES serves another examples folder.
-
-
-@pytest.fixture(scope="module")
-def browser_ready():
-    if shutil.which("sh") is None:
-        pytest.skip("no shell to run ensure_browser.sh")
-    r = subprocess.run(["sh", str(HERE / "ensure_browser.sh")], capture_output=True, text=True,
-                       timeout=900)
-    if r.returncode != 0:
-        pytest.skip(f"no browser for the end-to-end tests: {r.stdout.strip() or r.stderr.strip()}")
-    OUT.mkdir(parents=True, exist_ok=True)
-
-
-@pytest.fixture(scope="module")
-def server(browser_ready, tmp_path_factory):
-    """``morphogen serve`` on 127.0.0.1 and a free port, with its own run archive."""
-    archive = tmp_path_factory.mktemp("archive") / "index.sqlite"
-    examples = os.environ.get("MORPHOGEN_E2E_EXAMPLES")
-    if not examples:
-        examples = tmp_path_factory.mktemp("examples")
-        (examples / "flowers").mkdir()
-        (examples / "flowers" / "tiny.toml").write_text(TINY_PETAL.replace("STEPS", "500"))
-        (examples / "flowers" / "endless.toml").write_text(
-            TINY_PETAL.replace("STEPS", "1000000").replace("§4.2", "§4.9"))
-    env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONUNBUFFERED": "1"}
-    if MEASURE:
-        env["MORPHOGEN_COMPILE_CACHE"] = str(tmp_path_factory.mktemp("compile-cache"))
-    log_path = OUT / "server.log"
-    with open(log_path, "w") as log:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "morphogen.cli.main", "serve", "--port", "0",
-             "--archive", str(archive), "--examples", str(examples), *WARM_UP],
-            stdout=log, stderr=subprocess.STDOUT, text=True, env=env, cwd=ROOT,
-        )
-    try:
-        url = None
-        end = time.monotonic() + 120
-        while url is None and time.monotonic() < end and proc.poll() is None:
-            for word in log_path.read_text().split():
-                if word.startswith("http://127.0.0.1:"):
-                    url = word
-            time.sleep(0.1)
-        if url is None:
-            pytest.fail(f"the server did not start: {log_path.read_text()}")
-        yield url
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-
-
-def scenario(server: str, name: str) -> dict:
-    """Run one scenario of browser.mjs; its observations as a dict."""
-    r = subprocess.run(["node", str(HERE / "browser.mjs"), name, server, str(OUT)],
-                       capture_output=True, text=True, timeout=900 if MEASURE else 300, cwd=HERE)
-    assert r.returncode == 0, f"{name}: {r.stderr.strip()} (screenshot {OUT}/{name}-failed.png)"
-    data = json.loads((OUT / f"{name}.json").read_text())
-    assert not data["problems"], data["problems"]
-    return data
-
 
 def test_explore_shows_a_live_simulation(server):
     warm = wait_for_warm_up() if MEASURE else None
@@ -208,9 +135,14 @@ def test_one_evolve_generation_with_two_favourites(server):
     expect = [(1 - LAMBDA) / 4] * 6
     expect[1] = expect[4] = LAMBDA / 2
     assert data["gen1"] == pytest.approx(expect, rel=1e-5)
-    # reloading while the run waits for a choice keeps it; Runs offers to continue it
-    assert data["reloaded"] == {"gen": 2, "state": "choose", "stop": True}
+    # reloading while the run waits for a choice keeps it with its own settings (not the
+    # page's defaults); Runs offers to continue it
+    shown = {"population": "6", "size": "48", "steps": "2000", "generations": "3"}
+    assert data["reloaded"] == {"gen": 2, "state": "choose", "stop": True, "controls": shown}
     assert "null" not in data["detailText"] and data["continued"] == "choose"
+    # stopped while choosing, generation 2's six pictures stay (after a reload too), unchosen
+    assert data["stopped"] == {"captions": [f"#{i} (not chosen)" for i in range(6)],
+                               "loaded": 6, "controls": shown}
     # stopped, it resumes from the Runs page at generation 2, and is deleted after a confirmation
     assert data["resumedGen"] == 2
     assert data["run"] in data["dialog"] and data["run"] not in data["listedAfterDelete"]

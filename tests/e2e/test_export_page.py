@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_browser import HERE, OUT, ROOT, browser_ready  # noqa: F401 (a fixture)
+from browser_support import HERE, OUT, ROOT
 
 USER_MODEL = """# a model pasted by a user: FitzHugh-Nagumo-like, with a cubic and a division
 name = "pasted-user-model"

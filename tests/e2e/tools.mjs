@@ -225,3 +225,12 @@ export async function openRunFile(page, out) {
   return { opened: { F: s.params.F, cmap: s.cmap, size: s.size, height: s.height, scheme: s.scheme,
     model: s.model }, openError: await page.textContent('#ex-error') };
 }
+
+// open the Evolve page, set its selects and number fields, and start a run
+export async function startEvolve(page, base, { selects = {}, fields = {} } = {}) {
+  await page.goto(`${base}#evolve`);
+  await page.waitForFunction(() => Number(document.getElementById('ev-population')?.value) > 0);
+  for (const [name, value] of Object.entries(selects)) await page.selectOption(`#ev-${name}`, value);
+  for (const [name, value] of Object.entries(fields)) await page.fill(`#ev-${name}`, String(value));
+  await page.click('#ev-start');
+}

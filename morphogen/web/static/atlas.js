@@ -117,6 +117,7 @@ export class Atlas {
       this.$('at-save').hidden = true;
       this.$('at-csv').hidden = true;
       this.$('at-legend').hidden = true;
+      this.$('at-unstable').hidden = true;
       this.$('at-message').textContent = '';
       this.result = null;
       showError(this.$('at-error'), err.message);
@@ -151,12 +152,18 @@ export class Atlas {
     this.$('at-xlabels').replaceChildren(
       ...res.x.values.map((v) => el('span', { text: `${res.x.name}=${fmt(v)}` })),
     );
-    const bad = res.valid.flat().filter((v) => !v).length;
-    const blown = bad - res.grid_scale;
-    const notes = [blown ? `${blown} blew up` : '', res.grid_scale ? `${res.grid_scale} grew a grid-scale checkerboard (a numerical instability: lower dt)` : '']
-      .filter(Boolean).join(', ');
     this.$('at-message').textContent = `${res.model_name}: ${res.x.n} × ${res.y.n} tiles of ${res.tile}², `
-      + `${res.steps} steps of dt = ${fmt(res.dt)}` + (notes ? `; ${notes} (magenta)` : '');
+      + `${res.steps} steps of dt = ${fmt(res.dt)}`;
+    // tiles that blew up or grew a grid-scale checkerboard are numerically unstable at this dt,
+    // not patterns: hatched in the mosaic, counted here, named on hover (the full report as title)
+    const unstable = res.valid.flat().filter((v) => !v).length;
+    const line = this.$('at-unstable');
+    line.hidden = !unstable;
+    const why = [unstable > res.grid_scale ? `${unstable - res.grid_scale} blew up` : '',
+      res.grid_scale ? `${res.grid_scale} grew a grid-scale checkerboard` : ''].filter(Boolean).join(', ');
+    line.textContent = unstable ? `${unstable} of ${res.valid.flat().length} tiles numerically unstable `
+      + `at dt = ${fmt(res.dt)} (hatched: ${why}); not patterns: a smaller dt shows what those parameters do` : '';
+    line.title = res.unstable ?? '';
     this.showFamilies(res.families);
   }
 
@@ -211,8 +218,9 @@ export class Atlas {
 
   showTile(t) {
     const family = t && this.result.families ? ` · ${this.result.families.labels[t.i][t.j]}` : '';
+    const unstable = t && !this.result.valid[t.i][t.j] ? ' · numerically unstable (not a pattern)' : '';
     this.$('at-hover').textContent = t
-      ? `${this.result.x.name} = ${fmt(t.x)}, ${this.result.y.name} = ${fmt(t.y)}${family}` : '';
+      ? `${this.result.x.name} = ${fmt(t.x)}, ${this.result.y.name} = ${fmt(t.y)}${family}${unstable}` : '';
   }
 
   open(ev) {

@@ -41,6 +41,7 @@ export class Evolve {
       error: el('div', { id: 'ev-error', class: 'error', hidden: '' }),
       bar: el('progress', { id: 'ev-progress', max: 1, value: 0, hidden: '' }),
       message: el('p', { id: 'ev-message', class: 'muted' }),
+      netNote: el('p', { id: 'ev-net-note', class: 'muted small', hidden: '' }),
       grid: el('div', { id: 'ev-grid', class: 'grid-pop' }),
       elites: el('div', { id: 'ev-elites', hidden: '' }),
       log: el('pre', { id: 'ev-log', class: 'mono muted' }),
@@ -71,7 +72,7 @@ export class Evolve {
     this.toolbar = el('div', { class: 'toolbar' }, u.next, el('span', { class: 'muted small', text: 'Click tiles to choose favourites.' }));
     s.append(
       this.toolbar,
-      u.error, u.bar, u.message, u.grid, u.elites, u.log,
+      u.error, u.bar, u.message, u.netNote, u.grid, u.elites, u.log,
     );
     u.model.addEventListener('change', () => this.setup());
     u.kind.addEventListener('change', () => this.setup());
@@ -82,20 +83,55 @@ export class Evolve {
     await this.attach(sessionStorage.getItem(RUN_KEY));
   }
 
-  // Show a run the server is still running or waiting on (after a reload, or from Runs).
+  // Show a run this server knows (after a reload, or from Runs): its settings in the controls,
+  // then its tiles; a stopped or finished run stays shown with what it evaluated.
   async attach(run) {
     if (!run || this.status?.run === run) return;
     try {
       const st = await api(`/api/evolve/${run}`);
-      if (!['running', 'choose'].includes(st.state)) throw new Error(st.state);
+      await this.restore(st.settings);
       this.status = st;
       this.shownGen = 0;
+      this.shownNetworks = null;
+      this.elitesShown = null;
       this.ui.grid.replaceChildren();
+      this.ui.elites.hidden = true;
+      this.ui.netNote.hidden = true;
       sessionStorage.setItem(RUN_KEY, run);
       await this.poll();
     } catch (err) {
       if (sessionStorage.getItem(RUN_KEY) === run) sessionStorage.removeItem(RUN_KEY);
     }
+  }
+
+  // the controls as the run was started: what to evolve, model, search and simulation, genes
+  async restore(s) {
+    if (!s) return;
+    const u = this.ui;
+    u.kind.value = s.kind;
+    const library = s.model?.library;
+    if (library && [...u.model.options].some((o) => o.value === library)) u.model.value = library;
+    await this.setup();
+    for (const key of ['population', 'generations', 'size', 'dt', 'seed']) u[key].value = s[key];
+    if (s.kind !== 'params') {
+      u.tStart.value = s.t_start;
+      u.interval.value = s.interval;
+      u.rounds.value = s.rounds;
+      return;
+    }
+    u.fitness.value = s.fitness;
+    u.strategy.value = s.strategy;
+    u.steps.value = s.steps;
+    this.init_kind = s.init;
+    const genes = new Map(s.genes.map((g) => [g.name, g]));
+    for (const box of u.genes.querySelectorAll('input[data-gene]')) {
+      const g = genes.get(box.dataset.gene);
+      box.checked = Boolean(g);
+      if (!g) continue;
+      u.genes.querySelector(`input[data-low="${g.name}"]`).value = fmt(g.low);
+      u.genes.querySelector(`input[data-high="${g.name}"]`).value = fmt(g.high);
+    }
+    this.sigma = new Map(s.genes.map((g) => [g.name, g.sigma]));
   }
 
   get networkMode() { return this.ui.kind.value !== 'params'; }
@@ -181,6 +217,7 @@ export class Evolve {
       sessionStorage.setItem(RUN_KEY, this.status.run);
       u.grid.replaceChildren();
       u.elites.hidden = true;
+      u.netNote.hidden = true;
       this.shownGen = 0;
       this.shownNetworks = null;
       this.poll();
@@ -204,7 +241,6 @@ export class Evolve {
     const st = this.status;
     const u = this.ui;
     const active = ['running', 'choose'].includes(st.state);
-    if (!active && sessionStorage.getItem(RUN_KEY) === st.run) sessionStorage.removeItem(RUN_KEY);
     u.start.disabled = active;
     u.stop.hidden = !active;
     u.bar.hidden = st.state !== 'running';
@@ -215,11 +251,25 @@ export class Evolve {
     if (st.error) showError(u.error, st.error);
     if (st.kind === 'networks') {
       this.showNetworks(st);
-    } else if (st.state === 'choose' && this.shownGen !== st.gen) {
-      this.shownGen = st.gen;
-      this.picked.clear();
-      this.showTiles(st.images.map((src, i) => ({ src, caption: `#${i}`, idx: i, params: st.params?.[i] })), true);
-    } else if (st.state !== 'choose' && st.fitness !== 'user' || st.state === 'done') {
+    } else if (st.state === 'choose') {
+      if (this.shownGen !== st.gen) {
+        this.shownGen = st.gen;
+        this.picked.clear();
+        this.showTiles(st.images.map((src, i) => ({ src, caption: `#${i}`, idx: i, params: st.params?.[i] })), true);
+      }
+    } else if (st.images) {
+      // stopped while favourites were chosen: that generation was evaluated, never chosen;
+      // its pictures stay, to look at and open in Explore
+      if (this.shownGen !== `asked-${st.gen}`) {
+        this.shownGen = `asked-${st.gen}`;
+        this.picked.clear();
+        this.showTiles(st.images.map((src, i) => ({
+          src, caption: `#${i} (not chosen)`, idx: i, params: st.params?.[i],
+          open: { ...st.explore, params: { ...st.explore.params, ...st.params?.[i] } },
+        })), false);
+      }
+    } else if (st.fitness !== 'user' || !active) {
+      // the last generation recorded: while an automatic fitness runs, and once a run ends
       const last = st.state === 'done' ? st.total : st.gen - 1;
       if (last >= 1 && this.shownGen !== -last) {
         this.shownGen = -last;
@@ -260,19 +310,29 @@ export class Evolve {
     ].filter((node) => node != null));
   }
 
-  // the fittest networks of the last evaluated generation: activator pattern and reaction graph
+  // the fittest valid networks of the last evaluated generation: activator pattern and reaction
+  // graph; the invalid ones (left the bounds or blew up) are counted, never listed as fittest,
+  // and a network whose activator ends uniform says so under its flat picture
   showNetworks(st) {
-    const key = st.best.map((b) => `${b.pattern}|${b.network}`).join();
+    const key = `${st.invalid}|${st.best.map((b) => `${b.pattern}|${b.network}`).join()}`;
     if (this.shownNetworks === key) return;
     this.shownNetworks = key;
+    const note = this.ui.netNote;
+    const none = st.best.length === 0 && st.invalid > 0;
+    note.textContent = none
+      ? `no valid network in this generation: all ${st.invalid} left the bounds or blew up`
+      : st.invalid ? `${st.invalid} of ${st.population} networks were invalid (left the bounds or blew up) and are not listed` : '';
+    note.hidden = !note.textContent;
     const grid = this.ui.grid;
     grid.style.gridTemplateColumns = 'repeat(auto-fill, minmax(250px, 1fr))';
     grid.replaceChildren(...st.best.map((b, rank) => {
+      const flat = b.uniform ? ' · uniform field' : '';
       const tile = el('button', { type: 'button', class: 'tile', 'data-idx': b.idx,
-        title: b.explore ? `${b.reactions.join('\n')}\n\nopen in Explore` : (b.note ?? '') },
-      el('img', { src: b.pattern, alt: `pattern of network #${b.idx}` }),
+        title: `${b.uniform ? 'the activator ends uniform: no pattern\n' : ''}${
+          b.explore ? `${b.reactions.join('\n')}\n\nopen in Explore` : (b.note ?? '')}` },
+      el('img', { src: b.pattern, alt: `pattern of network #${b.idx}${b.uniform ? ' (uniform field)' : ''}` }),
       b.network ? el('img', { src: b.network, alt: `reactions of network #${b.idx}` }) : null,
-      el('span', { class: 'cap', text: `${rank + 1}. #${b.idx} f=${b.fitness == null ? 'invalid' : fmt(b.fitness)}` }));
+      el('span', { class: 'cap', text: `${rank + 1}. #${b.idx} f=${fmt(b.fitness)}${flat}` }));
       if (b.explore) tile.addEventListener('click', () => this.app.openInExplore(b.explore));
       return tile;
     }));

@@ -5,6 +5,7 @@ import { api, colourTable, el, fillSelect, fmt, showError } from './api.js';
 import { ExploreTools } from './explore_tools.js';
 import { frameMethods } from './explore_frames.js';
 import { ParamMaps } from './explore_maps.js';
+import { MatchPanel } from './explore_match.js';
 import {
   EQUATIONS, EXAMPLE, downloadPage, frameEstimate, keepCheckpoint, putCheckpoint, restoreCheckpoint,
   settingsOf, viewOf,
@@ -33,6 +34,7 @@ export class Explore {
     this.lastQuery = null; // the address's query this page last wrote or loaded
     this.tools = new ExploreTools(this);
     this.maps = new ParamMaps(this); // parameters as fields from images
+    this.match = new MatchPanel(this); // a picture -> models that grow it (morphogen match)
     // what the end-to-end tests read
     window.morphogenExplore = this;
   }
@@ -52,6 +54,7 @@ export class Explore {
     this.bindControls();
     this.tools.bind(); // brush, readout, colour bar, recording
     this.maps.bind();
+    this.match.bind();
     const query = currentQuery();
     this.lastQuery = query;
     const fromUrl = decodeSettings(query);
@@ -88,7 +91,7 @@ export class Explore {
     this.visible = false;
   }
 
-  // (Re)start with settings {model, params, preset, init, seed, size, height, boundary,
+  // (Re)start with settings {model, params, preset, init, seed, size, height, dx, boundary,
   // scheme}, then optionally {view: {cmap, species, steps_per_frame, range}, dt} (from a link).
   async load(settings) {
     this.loading = (this.loading || 0) + 1; // what the end-to-end tests wait on
@@ -107,7 +110,7 @@ export class Explore {
       preset: settings.preset,
       init: settings.init,
       seed: settings.seed ?? 0,
-      size: settings.size ?? Number(this.$('ex-size').value),
+      size: settings.size ?? Number(this.$('ex-size').value), dx: settings.dx,
       boundary: settings.boundary ?? this.$('ex-boundary').value,
       height: settings.height ?? (this.$('ex-height').value ? Number(this.$('ex-height').value) : undefined),
       scheme: settings.scheme ?? this.$('ex-scheme').value,
@@ -438,7 +441,7 @@ export class Explore {
     return this.load({
       model: this.spec, params: this.state.params, init: this.$('ex-init').value,
       seed: Number(this.$('ex-seed').value), size, height: height ? Number(height) : undefined,
-      boundary, scheme, view, dt: this.handDt,
+      boundary, scheme, view, dt: this.handDt, dx: this.state.dx,
     });
   }
 

@@ -37,7 +37,7 @@ export function viewOf(state) {
 export function settingsOf(state, spec) {
   return {
     model: spec, params: { ...state.params }, dt: state.dt, size: state.size,
-    height: state.height, boundary: state.boundary, scheme: state.scheme, init: state.init,
+    height: state.height, dx: state.dx, boundary: state.boundary, scheme: state.scheme, init: state.init,
     seed: state.seed, view: viewOf(state),
   };
 }

@@ -1,6 +1,7 @@
 // Explore's settings in the page address: #explore?model=gray-scott&p.F=0.037&size=256&...
-// so a copied link or a reload starts the same run (same model, parameters, grid, boundary,
-// scheme, initial condition and seed) with the same view. Pasted equations travel as `eq`.
+// so a copied link or a reload starts the same run (same model, parameters, grid, its spacing dx
+// when not 1, boundary, scheme, initial condition and seed) with the same view. Pasted equations
+// travel as `eq`.
 // Everything read back goes to the server's checks like any control's value.
 
 const VIEW = { cmap: 'cmap', species: 'show', steps_per_frame: 'spf' };
@@ -14,6 +15,7 @@ export function encodeState(state, spec) {
   q.set('dt', String(state.dt));
   q.set('size', String(state.size));
   if (state.height !== state.size) q.set('height', String(state.height));
+  if (state.dx !== undefined && state.dx !== 1) q.set('dx', String(state.dx));
   q.set('boundary', state.boundary);
   q.set('scheme', state.scheme);
   q.set('init', state.init);
@@ -41,7 +43,7 @@ export function decodeSettings(query) {
   }
   if (q.has('range')) view.range = q.get('range').split(',').map(Number);
   return {
-    model, params, dt: num('dt'), size: num('size'), height: num('height') ?? num('size'),
+    model, params, dt: num('dt'), size: num('size'), height: num('height') ?? num('size'), dx: num('dx'),
     boundary: q.get('boundary') ?? undefined, scheme: q.get('scheme') ?? undefined,
     init: q.get('init') ?? undefined, seed: num('seed'), view,
   };
@@ -76,7 +78,8 @@ export function settingsFromRunFile(data) {
   return {
     model: c.model_source ? { equations: c.model_source } : { library: c.model },
     preset: c.preset || undefined, params: c.params || {}, dt: c.dt ?? resolved.dt,
-    height: size[0], size: size[1], boundary: c.boundary, scheme, init: c.init ?? undefined,
+    height: size[0], size: size[1], dx: c.dx ?? undefined, boundary: c.boundary, scheme,
+    init: c.init ?? undefined,
     seed: c.seed ?? 0, view,
   };
 }
