@@ -21,3 +21,19 @@ def interleaved(runs: Mapping[str, Callable[[], Any]], rounds: int
             run()
             times[name].append(time.perf_counter() - t0)
     return times, load_before, os.getloadavg()
+
+
+def interleaved_cpu(runs: Mapping[str, Callable[[], Any]], rounds: int
+                    ) -> tuple[dict[str, list[float]], dict[str, list[float]]]:
+    """As :func:`interleaved`, recording both the CPU seconds of this process
+    (``time.process_time``: every thread, not the time other jobs took from it) and the wall
+    seconds of each run: ``(cpu, wall)``, each ``{name: [one per round]}``."""
+    cpu: dict[str, list[float]] = {name: [] for name in runs}
+    wall: dict[str, list[float]] = {name: [] for name in runs}
+    for _ in range(rounds):
+        for name, run in runs.items():
+            c0, t0 = time.process_time(), time.perf_counter()
+            run()
+            cpu[name].append(time.process_time() - c0)
+            wall[name].append(time.perf_counter() - t0)
+    return cpu, wall

@@ -45,9 +45,10 @@ the 13-22 Euler steps an ``imex`` step costs at 128²-256²."""
 AUTO_RATIO_CG = 25.0
 """The same where ``imex`` solves diffusion by conjugate gradients (meshes; grids with
 Dirichlet, varying or anisotropic diffusion). On Ringham's Mimulus mesh at 23 000 vertices
-(``bench/results/imex_mesh.json``, docs/schemes.md) an ``imex`` step cost 18-21 Euler steps at a
-ratio of 17.6 (0.84x Euler's speed); with the iteration count growing as the ratio's square
-root, that breaks even near 19-25; at 85 000 vertices (ratio 59) ``imex`` was 1.76x faster."""
+(``bench/results/imex_mesh.json``, docs/schemes-mesh.md) an ``imex`` step cost 18-21 Euler
+steps at a ratio of 17.6 (0.84x Euler's speed); with the iteration count growing as the ratio's
+square root, that breaks even near 19-25; at 85 000 vertices (ratio 59) ``imex`` was 1.76x
+faster."""
 
 STIFF_SCHEME = "imex"
 """The stiff-aware scheme ``auto`` picks: second order and cheaper per step than ETDRK4."""
