@@ -124,7 +124,8 @@ def make_etd_advance(model: Model, domain: Domain) -> Advance:
     1.2 ms without). With ``coef=None`` the step computes them itself.
 
     Each stage is one batched real transform of all species (``rfftn`` over the spatial axes of
-    the ``(S, *spatial)`` stack), and the step opens with one transform of ``u`` and ``N(u)``
+    the ``(S, *spatial)`` stack; for no-flux species the cosine transform on the grid's own size,
+    :mod:`morphogen.solvers.cosine`), and the step opens with one transform of ``u`` and ``N(u)``
     together; the final combination is one elementwise pass (``2 f_2`` precomputed).
 
     Raises:

@@ -3,8 +3,9 @@
 For :math:`\\partial_t u = D\\,L u` on a grid with constant, isotropic, per-species ``D``, the
 discrete Laplacian ``L`` of the grid's stencil is diagonal in the Fourier basis of the boundary
 condition: complex exponentials (FFT) for periodic species and the cosines
-``cos(pi m (i + 1/2) / n)`` (a DCT-II, computed as an FFT of the mirrored extension) for no-flux
-species. On mode ``k`` it multiplies by the stencil's own symbol ``lambda(k) / dx^2``, e.g.
+``cos(pi m (i + 1/2) / n)``, ``m = 0 .. n - 1`` (a DCT-II on the grid's own size,
+:mod:`morphogen.solvers.cosine`) for no-flux species. On mode ``k`` it multiplies by the
+stencil's own symbol ``lambda(k) / dx^2``, e.g.
 ``sum_axes (2 cos k_a - 2)`` for the 5- and 7-point stencils, with ``k_a = 2 pi m / n``
 (periodic) or ``pi m / n`` (no flux), so ``(I - c D L)^{-1}`` is a division by
 ``1 - c D lambda(k)``: exact for the stencil the explicit schemes apply. The implicit-explicit
@@ -21,6 +22,7 @@ import numpy as np
 from morphogen.domains.base import Domain
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Array, Tensor
+from morphogen.solvers.cosine import dct, idct
 
 
 def require_spectral_grid(domain: Domain, species: tuple[str, ...], scheme: str) -> None:
@@ -47,18 +49,13 @@ class SpectralDiffusion:
         self.symbols = {m: _symbol(domain, m) for m in set(self.mirror)}
 
     def forward(self, f: Array, mirror: bool) -> Array:
-        """``rfftn`` of one field, mirrored along every axis first for a no-flux species."""
-        if mirror:
-            for ax in range(f.ndim):
-                f = jnp.concatenate([f, jnp.flip(f, ax)], axis=ax)
-        return jnp.fft.rfftn(f)
+        """``rfftn`` of one field, or its cosine coefficients (real, the field's shape) for a
+        no-flux species."""
+        return dct(f, f.ndim) if mirror else jnp.fft.rfftn(f)
 
     def inverse(self, g: Array, mirror: bool, dtype: Any) -> Array:
         """Inverse of :meth:`forward`, back on the grid."""
-        ext = tuple(2 * n if mirror else n for n in self.shape)
-        v = jnp.fft.irfftn(g, s=ext)
-        if mirror:
-            v = v[tuple(slice(0, n) for n in self.shape)]
+        v = idct(g, g.ndim) if mirror else jnp.fft.irfftn(g, s=self.shape)
         return v.astype(dtype)
 
     def groups(self) -> list[tuple[tuple[int, ...], bool]]:
@@ -68,19 +65,15 @@ class SpectralDiffusion:
 
     def forward_stack(self, f: Array, mirror: bool) -> Array:
         """:meth:`forward` of a stack ``(k, *spatial)`` of fields, as one batched transform."""
-        axes = tuple(range(1, f.ndim))
         if mirror:
-            for ax in axes:
-                f = jnp.concatenate([f, jnp.flip(f, ax)], axis=ax)
-        return jnp.fft.rfftn(f, axes=axes)
+            return dct(f, f.ndim - 1)
+        return jnp.fft.rfftn(f, axes=tuple(range(1, f.ndim)))
 
     def inverse_stack(self, g: Array, mirror: bool, dtype: Any) -> Array:
         """Inverse of :meth:`forward_stack`, back on the grid."""
-        ext = tuple(2 * n if mirror else n for n in self.shape)
-        v = jnp.fft.irfftn(g, s=ext, axes=tuple(range(1, g.ndim)))
         if mirror:
-            v = v[(slice(None), *(slice(0, n) for n in self.shape))]
-        return v.astype(dtype)
+            return idct(g, g.ndim - 1).astype(dtype)
+        return jnp.fft.irfftn(g, s=self.shape, axes=tuple(range(1, g.ndim))).astype(dtype)
 
     def solve_one(self, f: Array, d: Array, c: Array, mirror: bool) -> Array:
         """``(I - c d L)^{-1} f`` for one field, ``mirror`` for a no-flux species."""
@@ -98,10 +91,13 @@ class SpectralDiffusion:
 
 def _symbol(domain: Domain, mirror: bool) -> np.ndarray:
     """Laplacian symbol ``lambda(k) / dx^2`` (the stencil's, or ``-|k|^2`` for the spectral
-    operator) on the ``rfftn`` frequency grid of the (mirrored)
-    field: ``k = 2 pi m / N`` with ``N = n`` (periodic) or ``2 n`` (mirrored, i.e. ``pi m / n``)."""
-    sizes = [2 * n if mirror else n for n in domain.shape]
-    freqs = [2 * np.pi * np.fft.fftfreq(n) for n in sizes[:-1]]
-    freqs.append(2 * np.pi * np.fft.rfftfreq(sizes[-1]))
+    operator) on the modes of :meth:`SpectralDiffusion.forward`: the ``rfftn`` frequency grid
+    ``k = 2 pi m / n`` of a periodic field, the cosines' ``k = pi m / n``, ``m = 0 .. n - 1``,
+    of a no-flux one."""
+    if mirror:
+        freqs = [np.pi * np.arange(n) / n for n in domain.shape]
+    else:
+        freqs = [2 * np.pi * np.fft.fftfreq(n) for n in domain.shape[:-1]]
+        freqs.append(2 * np.pi * np.fft.rfftfreq(domain.shape[-1]))
     ks = np.meshgrid(*freqs, indexing="ij")
     return domain.symbol(*ks)

@@ -46,8 +46,8 @@ export function settingsOf(state, spec) {
 // the server (Gray-Scott 256², docs/web.md: periodic, and no flux, whose implicit solves are
 // cosine transforms), used only to warn before a set-up that could not keep up.
 const RELATIVE_COST = {
-  periodic: { euler: 1, rk4: 7, imex1: 5, imex: 9, etdrk4: 800 },
-  neumann: { euler: 1.4, rk4: 7, imex1: 16, imex: 40, etdrk4: 4000 },
+  periodic: { euler: 1, rk4: 13, imex1: 10, imex: 14, etdrk4: 26 },
+  neumann: { euler: 1.5, rk4: 14, imex1: 13, imex: 38, etdrk4: 57 },
 };
 const cost = (scheme, boundary) => (RELATIVE_COST[boundary] || RELATIVE_COST.periodic)[scheme] || 1;
 
