@@ -162,7 +162,14 @@ export async function checkpoint(page, base, out) {
   });
   const painted = await probe();
   await page.click('#ex-reset');
-  await page.waitForFunction(() => !window.morphogenExplore.inflight);
+  // the reset has reached the server once the probe reads a fresh uniform state (the click
+  // alone may return before the request starts); a reset that never lands times out
+  await page.waitForFunction(async () => {
+    const e = window.morphogenExplore;
+    if (e.inflight) return false;
+    const r = await fetch(`/api/live/${e.sid}/probe?x=0.5&y=0.5`);
+    return (await r.json()).values.v === 0;
+  }, null, { timeout: 30000, polling: 200 });
   const afterReset = await probe();
   await page.setInputFiles('#ex-restore', join(out, 'checkpoint.npz'));
   await page.waitForFunction(() => window.morphogenExplore.restored === 1, null, { timeout: 30000 });
