@@ -281,15 +281,21 @@ def test_show_redraws_a_painted_state_without_advancing_time(client):
     assert pixels.min() != pixels.max()  # the stroke shows
 
 
-def test_slow_work_times_out_with_a_message():
+def test_slow_work_times_out_with_a_message(monkeypatch):
     import anyio
+
+    from morphogen.web.live import LiveSim
 
     async def go():
         return await run_limited(lambda: time.sleep(2), 0.1, "a frame")
 
     with pytest.raises(WorkTimeout, match="took longer than 0.1 s"):
         anyio.run(go)
-    app = create_app(limits=Limits(request_timeout_s=1e-4), allowed_hosts=HOSTS)
+    # a set-up slower than the limit (a warm cache can set a small grid up within it)
+    configure = LiveSim.configure
+    monkeypatch.setattr(LiveSim, "configure",
+                        lambda self, *a, **k: time.sleep(0.5) or configure(self, *a, **k))
+    app = create_app(limits=Limits(request_timeout_s=0.05), allowed_hosts=HOSTS)
     with TestClient(app) as c:
         r = c.post("/api/live", json={"size": 32})
         assert r.status_code == 504 and "took longer" in r.json()["error"]
