@@ -11,7 +11,7 @@ from morphogen.errors import MorphogenError
 from morphogen.models.registry import load_model
 from morphogen.search.archive import Archive
 from morphogen.search.evaluate import FITNESS_KINDS, Problem
-from morphogen.search.executors import EXECUTORS, make_executor
+from morphogen.search.executors import EXECUTORS, make_executor, split_notice
 from morphogen.search.fitness import ask_selection
 from morphogen.search.genes import Gene, check_genes, preset_genes
 from morphogen.search.run import (
@@ -172,8 +172,7 @@ def run(args: argparse.Namespace) -> int:
                           out=args.out, archive=archive, cmap=args.cmap or DEFAULTS["cmap"])
     print(f"run {run_id} in {archive.run(run_id)['dir']}", flush=True)
     if args.executor == "auto" and executor.name == "ray":
-        print(f"evaluating each generation on {executor.batches} Ray workers (one per core); "
-              "--executor local keeps it in this process", flush=True)
+        print(split_notice(executor.batches), flush=True)
     result = evolve(run_id, archive, executor, select=ask_selection,
                     progress=options.show_progress(args), log=lambda line: print(line, flush=True))
     genes = gene_summary([g.name for g in problem.genes], result.best_genome)

@@ -11,7 +11,7 @@ import numpy as np
 
 from morphogen.cli import networks_export_cmd
 from morphogen.errors import MorphogenError
-from morphogen.search.executors import EXECUTORS, auto_executor
+from morphogen.search.executors import EXECUTORS, auto_executor, split_notice
 from morphogen.util.guard import WORKING_COPIES, check_count, check_numbers, check_steps
 from morphogen.util.io import check_out_name, ensure_writable_dir, write_atomic, write_json
 from morphogen.util.progress import ProgressBar
@@ -133,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
     ops = Operators(mode=args.mode, tournament=args.tournament)
     ev = Evaluation(size=args.size, dt=args.dt, t_start=args.t_start, interval=args.interval,
                     rounds=args.rounds, init=args.init, init_noise=args.init_noise)
-    check_cost(args, len(spec.species), ev.start_steps + (ev.rounds - 1) * ev.round_steps)
+    check_cost(args, len(spec.species), ev.steps)
     if args.resume:
         run_id, archive = record.resume(out, args.archive, args.generations)
     elif (out / "state.npz").exists() or (out / "config.json").exists():
@@ -144,7 +144,7 @@ def run(args: argparse.Namespace) -> int:
         run_id = record.start(out, archive, {
             "mode": args.mode, "generations": args.generations, "population": args.population,
             "seed": args.seed, "spec": asdict(spec), "ops": asdict(ops), "ev": asdict(ev)})
-    per_gen = ev.start_steps + (ev.rounds - 1) * ev.round_steps
+    per_gen = ev.steps
     evaluator = None
     executor = args.executor
     if executor == "auto":
@@ -154,8 +154,7 @@ def run(args: argparse.Namespace) -> int:
 
         evaluator = RayNetworkEvaluator(address=args.address, batches=args.batches)
         if args.executor == "auto" and not args.quiet:
-            print(f"evaluating each generation on {evaluator.batches} Ray workers (one per "
-                  "core); --executor local keeps it in this process", flush=True)
+            print(split_notice(evaluator.batches), flush=True)
     recorder = record.Recorder(archive, run_id, Path(out), spec, asdict(ev))
     done = completed(out) if args.resume else 0
     bar = ProgressBar(max(args.generations - done, 0) * per_gen, enabled=not args.quiet,

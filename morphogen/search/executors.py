@@ -43,6 +43,12 @@ def auto_executor(work: float) -> str:
     return "ray"
 
 
+def split_notice(workers: int) -> str:
+    """The line printed when ``auto`` splits generations over ``workers`` Ray workers."""
+    return (f"evaluating each generation on {workers} Ray workers (one per core); "
+            "--executor local keeps it in this process")
+
+
 class LocalExecutor:
     """The whole population as one batched simulation in this process."""
 

@@ -85,7 +85,7 @@ def parse_settings(body: dict[str, Any], limits: Limits) -> NetworkSettings:
     m_max = integer(d["m_max"], "reaction slots", 7, 12)
     seed = integer(d["seed"], "seed", 0, 2**31 - 1)
     ev = Evaluation(size=size, dt=dt, t_start=t_start, interval=interval, rounds=rounds)
-    check_budget(size * size, ev.start_steps + (rounds - 1) * ev.round_steps, population,
+    check_budget(size * size, ev.steps, population,
                  limits)
     if mode == "rates":
         spec = table2_spec()
@@ -140,7 +140,7 @@ class NetworkRun:
 
         s = self.settings
         recorder = record.Recorder(self.archive, self.run_id, self.out, s.spec, asdict(s.ev))
-        per_gen = s.ev.start_steps + (s.ev.rounds - 1) * s.ev.round_steps
+        per_gen = s.ev.steps
 
         def on_generation(gen: int, pop: Any, fitness: np.ndarray) -> None:
             recorder(gen, pop, fitness)

@@ -104,6 +104,11 @@ class Evaluation:
     def round_steps(self) -> int:
         return max(1, int(round(self.interval / self.dt)))
 
+    @property
+    def steps(self) -> int:
+        """Steps of one individual's evaluation: to ``t_start``, then ``rounds - 1`` rounds."""
+        return self.start_steps + (self.rounds - 1) * self.round_steps
+
 
 def _advance(spec: NetworkSpec, size: int, steps: int, dt: float) -> Callable:
     """``advance(u, params) -> u``: ``steps`` Euler steps of a batch ``(B, n, size, size)``,

@@ -64,7 +64,7 @@ class RayNetworkEvaluator:
         pending = {self._task.remote(spec_d, ev_d, tuple(a[p] for a in arrays), u0): p
                    for p in parts}
         fitness = np.zeros(size, np.float32)
-        per_gen = ev.start_steps + (ev.rounds - 1) * ev.round_steps
+        per_gen = ev.steps
         done = reported = 0
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1)
