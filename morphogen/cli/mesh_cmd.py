@@ -80,7 +80,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Writes OUT.ply with the per-vertex fields vein (1 on veins), "
         "vein_thickness and vein_distance (path length over mesh edges to the nearest vein, "
         "mesh units), and the vein graph as OUT.veins.npz. Lengths default to multiples of "
-        "the mean edge e: step 2e, kill 3 step, influence 15 step.")
+        "the mean edge e: step 2e, kill 3 step, influence 15 step. --venation closed grows "
+        "reticulate veins that meet and form loops (Runions et al. 2005).")
     veins.add_argument("file", metavar="MESH.ply")
     veins.add_argument("--out", required=True, metavar="OUT.ply", help="output PLY file")
     veins.add_argument("--seeds", required=True, metavar="SET",
@@ -101,6 +102,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                        help="remove terminal branches shorter than this (mesh units; 0 keeps all)")
     veins.add_argument("--gamma", type=float, help="Murray's-law exponent of vein thickness (3)")
     veins.add_argument("--tip-radius", type=float, help="vein radius at the tips (mesh units)")
+    veins.add_argument("--venation", choices=("open", "closed"), default="open",
+                       help="open: a tree, each attraction point pulls its nearest vein; closed: "
+                       "each point pulls every vein of its relative neighbourhood and is "
+                       "removed when all have reached it, so veins meet in loops (open)")
     veins.add_argument("--same-piece", action="store_true",
                        help="keep each vein on the connected piece of the mesh its root is on")
     veins.add_argument("--seed", type=options.seed, default=0, help="random seed (0)")
@@ -214,6 +219,8 @@ def run_info(args: argparse.Namespace) -> int:
 def run_veins(args: argparse.Namespace) -> int:
     from morphogen.domains.ply import load_mesh, save_ply
     from morphogen.flowers.pipeline import grow_veins
+    from morphogen.flowers.veins import vein_statistics
+    from morphogen.flowers.veins_closed import areoles
     from morphogen.render.colour import colourise
     from morphogen.render.mesh import overlay_veins, parse_view
     from morphogen.util.io import write_npz
@@ -225,7 +232,7 @@ def run_veins(args: argparse.Namespace) -> int:
     mesh = load_mesh(args.file)
     stage = {k: getattr(args, k) for k in ("seeds", "points", "influence", "kill", "step",
                                             "iterations", "density", "seed", "refill", "birth",
-                                            "min_branch", "gamma", "tip_radius")
+                                            "min_branch", "gamma", "tip_radius", "venation")
              if getattr(args, k) is not None}
     stage["same_piece"] = args.same_piece
     graph, fields = grow_veins(stage, mesh)
@@ -243,8 +250,14 @@ def run_veins(args: argparse.Namespace) -> int:
         from morphogen.render.images import write_png
 
         write_png(out.with_suffix(".png"), image)
+    stats = vein_statistics(graph, float(mesh.areas.sum()))
+    order = f"Strahler order up to {stats['strahler']}" if len(graph.links) == 0 \
+        else "joined by links (no Strahler order)"
     print(f"wrote {path} and {graph_path}: {len(graph.nodes)} vein nodes from "
-          f"{len(graph.seeds)} seeds, Strahler order up to {int(graph.order.max())}, "
+          f"{len(graph.seeds)} seeds, {order}, "
           f"{int(fields['vein'].sum())} of {mesh.n_vertices} vertices on veins, "
           f"{len(graph.remaining)} attraction points unreached")
+    print(f"{stats['tips']} tips, {stats['loops']} loops, "
+          f"{len(areoles(mesh, fields['vein']))} areoles, vein length {stats['length']:.4g}, "
+          f"spacing {stats['spacing']:.4g}")
     return 0

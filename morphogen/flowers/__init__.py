@@ -30,3 +30,5 @@ from morphogen.flowers.veins import VeinGraph as VeinGraph
 from morphogen.flowers.veins import space_colonisation as space_colonisation
 from morphogen.flowers.veins import vein_fields as vein_fields
 from morphogen.flowers.veins import vein_statistics as vein_statistics
+from morphogen.flowers.veins_closed import areoles as areoles
+from morphogen.flowers.veins_closed import closed_colonisation as closed_colonisation

@@ -32,7 +32,7 @@ parameters, initial values, boundary values or the anisotropy direction. ::
     seeds = "base"                # a vertex set or an expression (> 0.5 is a seed)
     points = 4000                 # attraction points; optional influence, kill, step (mesh
     iterations = 400              # units), density, gamma, tip_radius, seed, refill, birth,
-                                  # min_branch, same_piece
+                                  # min_branch, same_piece, venation ("open" or "closed")
 
     [[stage]]                     # a simulation: any library model or model file
     kind = "simulate"
@@ -89,7 +89,7 @@ _KEYS = {
     "points": {"field", "count", "density", "low", "high", "seed"},
     "veins": {"seeds", "points", "influence", "kill", "step", "iterations", "density", "gamma",
               "tip_radius", "seed", "refill", "birth", "min_branch", "same_piece", "show",
-              "cmap"},
+              "cmap", "venation"},
     "simulate": {"model", "preset", "steps", "time", "dt", "seed", "init", "init_options",
                  "params", "initial", "boundary", "directions", "omega", "outputs", "show",
                  "cmap", "unsafe", "scheme", "rtol", "atol"},
@@ -360,7 +360,8 @@ def _run_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, picture
 
 def grow_veins(stage: Mapping[str, Any], mesh: Mesh, seed: int = 0):
     """The vein graph and fields of a ``veins`` stage table (also used by ``mesh veins``)."""
-    from morphogen.flowers.veins import space_colonisation, vein_fields
+    from morphogen.flowers.veins import vein_fields
+    from morphogen.flowers.veins_closed import colonisation
 
     spec = stage.get("seeds")
     if not isinstance(spec, str) or not spec.strip():
@@ -375,7 +376,7 @@ def grow_veins(stage: Mapping[str, Any], mesh: Mesh, seed: int = 0):
     lengths = {k: float(stage[k]) for k in ("influence", "kill", "step", "tip_radius", "birth",
                                             "min_branch") if k in stage}
     density = stage.get("density")
-    graph = space_colonisation(
+    graph = colonisation(stage.get("venation", "open"))(
         mesh, seeds, points=_integer(stage, "points", 2000),
         iterations=_integer(stage, "iterations", 400), gamma=float(stage.get("gamma", 3.0)),
         density=None if density is None else evaluate(density, mesh),
@@ -411,7 +412,7 @@ def _veins_stage(stage, mesh: Mesh, spec, stage_dir: Path, view: Any, pictures: 
     stats = vein_statistics(graph, float(mesh.areas.sum()))
     return fields, {"nodes": len(graph.nodes), "remaining_points": len(graph.remaining),
                     "max_order": int(graph.order.max()), "tips": stats["tips"],
-                    "stub_share": round(stats["stub_share"], 4),
+                    "loops": stats["loops"], "stub_share": round(stats["stub_share"], 4),
                     "vein_length": round(stats["length"], 4),
                     "vein_spacing": round(stats["spacing"], 5)}, colours
 

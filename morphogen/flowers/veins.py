@@ -35,7 +35,7 @@ of the geodesic distance, in mesh units).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -51,7 +51,7 @@ _NEIGHBOUR_FACES = 12
 
 @dataclass(frozen=True)
 class VeinGraph:
-    """A vein forest on a mesh.
+    """A vein forest on a mesh, or with ``links`` a vein network with loops.
 
     Attributes:
         nodes: ``(N, 3)`` positions on the surface; roots first, every parent before its
@@ -62,6 +62,9 @@ class VeinGraph:
         thickness: ``(N,)`` radius of that segment (pipe model).
         seeds: ``(R,)`` mesh vertices the roots sit on.
         remaining: ``(M, 3)`` attraction points never reached.
+        links: ``(L, 2)`` segments beyond the forest, ``(node, junction)`` pairs that close
+            loops (closed venation, :mod:`morphogen.flowers.veins_closed`); empty for a
+            tree. ``order`` and ``thickness`` are those of the forest alone.
     """
 
     nodes: np.ndarray
@@ -71,18 +74,21 @@ class VeinGraph:
     thickness: np.ndarray
     seeds: np.ndarray
     remaining: np.ndarray
+    links: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))
 
     @property
     def edges(self) -> np.ndarray:
-        """``(N - R, 2)`` ``(parent, child)`` node pairs."""
+        """``(N - R + L, 2)`` ``(parent, child)`` node pairs, then the ``links``."""
         child = np.flatnonzero(self.parent >= 0)
-        return np.stack([self.parent[child], child], 1)
+        tree = np.stack([self.parent[child], child], 1)
+        return np.concatenate([tree, self.links.astype(tree.dtype)]) if len(self.links) \
+            else tree
 
     def arrays(self) -> dict[str, np.ndarray]:
         """Every array by name (for ``.npz`` files)."""
         return {"nodes": self.nodes, "parent": self.parent, "face": self.face,
                 "order": self.order, "thickness": self.thickness, "seeds": self.seeds,
-                "edges": self.edges, "remaining": self.remaining}
+                "edges": self.edges, "remaining": self.remaining, "links": self.links}
 
 
 def closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray,
@@ -184,32 +190,10 @@ def space_colonisation(
         MorphogenError: no seeds, a seed out of range, no points, or lengths out of order
             (``0 < step < kill < influence`` is required).
     """
-    seeds = np.unique(np.asarray(seeds, np.int64).ravel())
-    if seeds.size == 0:
-        raise MorphogenError("veins need at least one seed vertex (seeds = a vertex set name)")
-    if seeds.min() < 0 or seeds.max() >= mesh.n_vertices:
-        raise MorphogenError(f"seed vertices must be in [0, {mesh.n_vertices}), "
-                             f"got {seeds.min()}..{seeds.max()}")
-    if not (isinstance(points, int | np.integer) and points > 0):
-        raise MorphogenError(f"veins need a positive number of attraction points, got {points}")
-    if not (isinstance(iterations, int | np.integer) and iterations > 0):
-        raise MorphogenError(f"vein iterations must be a positive integer, got {iterations}")
-    e = mesh.edge_length
-    step = 2.0 * e if step is None else float(step)
-    kill = 3.0 * step if kill is None else float(kill)
-    influence = 15.0 * step if influence is None else float(influence)
-    tip_radius = 0.25 * e if tip_radius is None else float(tip_radius)
-    if not (np.isfinite(influence) and 0 < step < kill < influence):
-        raise MorphogenError(f"vein lengths must satisfy 0 < step < kill < influence, got step "
-                             f"{step:g}, kill {kill:g}, influence {influence:g}")
-    if not (gamma > 0 and tip_radius > 0):
-        raise MorphogenError(f"gamma and tip_radius must be positive, got {gamma}, {tip_radius}")
-    birth = kill if birth is None else float(birth)
-    if not (isinstance(refill, int | np.integer) and refill >= 0):
-        raise MorphogenError(f"vein refill must be a non-negative integer, got {refill}")
-    if not (np.isfinite(birth) and birth > 0 and np.isfinite(min_branch) and min_branch >= 0):
-        raise MorphogenError(f"vein birth must be positive and min_branch non-negative, got "
-                             f"{birth:g}, {min_branch:g}")
+    seeds, step, kill, influence, tip_radius, birth = check_options(
+        mesh, seeds, points=points, iterations=iterations, step=step, kill=kill,
+        influence=influence, gamma=gamma, tip_radius=tip_radius, refill=refill,
+        birth=birth, min_branch=min_branch)
 
     project = SurfaceProjector(mesh)
     normals = np.cross(*(mesh.vertices[mesh.faces[:, i]] - mesh.vertices[mesh.faces[:, 0]]
@@ -272,6 +256,41 @@ def space_colonisation(
                      order=order, thickness=thickness, seeds=seeds, remaining=attract)
 
 
+def check_options(mesh: Mesh, seeds: np.ndarray, *, points: int, iterations: int,
+                  step: float | None, kill: float | None, influence: float | None,
+                  gamma: float, tip_radius: float | None, refill: int,
+                  birth: float | None, min_branch: float) -> tuple:
+    """The checked ``(seeds, step, kill, influence, tip_radius, birth)`` of a growth, the
+    lengths defaulted from the mean edge (see :func:`space_colonisation`)."""
+    seeds = np.unique(np.asarray(seeds, np.int64).ravel())
+    if seeds.size == 0:
+        raise MorphogenError("veins need at least one seed vertex (seeds = a vertex set name)")
+    if seeds.min() < 0 or seeds.max() >= mesh.n_vertices:
+        raise MorphogenError(f"seed vertices must be in [0, {mesh.n_vertices}), "
+                             f"got {seeds.min()}..{seeds.max()}")
+    if not (isinstance(points, int | np.integer) and points > 0):
+        raise MorphogenError(f"veins need a positive number of attraction points, got {points}")
+    if not (isinstance(iterations, int | np.integer) and iterations > 0):
+        raise MorphogenError(f"vein iterations must be a positive integer, got {iterations}")
+    e = mesh.edge_length
+    step = 2.0 * e if step is None else float(step)
+    kill = 3.0 * step if kill is None else float(kill)
+    influence = 15.0 * step if influence is None else float(influence)
+    tip_radius = 0.25 * e if tip_radius is None else float(tip_radius)
+    if not (np.isfinite(influence) and 0 < step < kill < influence):
+        raise MorphogenError(f"vein lengths must satisfy 0 < step < kill < influence, got step "
+                             f"{step:g}, kill {kill:g}, influence {influence:g}")
+    if not (gamma > 0 and tip_radius > 0):
+        raise MorphogenError(f"gamma and tip_radius must be positive, got {gamma}, {tip_radius}")
+    birth = kill if birth is None else float(birth)
+    if not (isinstance(refill, int | np.integer) and refill >= 0):
+        raise MorphogenError(f"vein refill must be a non-negative integer, got {refill}")
+    if not (np.isfinite(birth) and birth > 0 and np.isfinite(min_branch) and min_branch >= 0):
+        raise MorphogenError(f"vein birth must be positive and min_branch non-negative, got "
+                             f"{birth:g}, {min_branch:g}")
+    return seeds, step, kill, influence, tip_radius, birth
+
+
 def _face_pieces(mesh: Mesh) -> np.ndarray:
     """Connected-piece label of every face (faces sharing a vertex are connected)."""
     from scipy.sparse.csgraph import connected_components
@@ -329,15 +348,19 @@ def _short_branches(nodes: np.ndarray, parent: np.ndarray, min_length: float) ->
 
 
 def vein_statistics(graph: VeinGraph, area: float, stub: int = 2) -> dict[str, float]:
-    """Measures of a vein forest on a surface of ``area``: ``nodes``; ``tips``; ``stub_share``,
-    the share of tips whose terminal branch has at most ``stub`` nodes; ``strahler``, the
-    highest Strahler order; ``order_length``, the vein length of each order from 1 up;
-    ``length`` in all; and ``spacing = area / length``, the
-    mean distance between neighbouring veins (for parallel veins ``s`` apart the length per
-    unit area is ``1/s``)."""
+    """Measures of a vein forest on a surface of ``area``: ``nodes``; ``tips`` (nodes without
+    children or links); ``stub_share``, the share of tips whose terminal branch has at most
+    ``stub`` nodes; ``strahler``, the highest Strahler order (of the forest without the
+    links); ``order_length``, the vein length of each order from 1 up; ``length`` in all;
+    ``spacing = area / length``, the mean distance between neighbouring veins (for parallel
+    veins ``s`` apart the length per unit area is ``1/s``); and ``loops = E - V + C``, the
+    independent cycles of the graph of ``V`` nodes, ``E`` segments and ``C`` connected pieces
+    (0 for a forest)."""
     parent = graph.parent
     edges = graph.edges
-    branches = _terminal_branches(parent)
+    linked = np.zeros(len(parent), bool)
+    linked[graph.links.ravel()] = True
+    branches = [b for b in _terminal_branches(parent) if not linked[b[0]]]
     tips = len(branches)
     stubs = sum(len(b) <= stub for b in branches)
     top = int(graph.order.max()) if len(graph.order) else 0
@@ -348,7 +371,16 @@ def vein_statistics(graph: VeinGraph, area: float, stub: int = 2) -> dict[str, f
     return {"nodes": int(len(parent)), "tips": tips, "stubs": int(stubs),
             "stub_share": stubs / tips if tips else 0.0, "strahler": top,
             "order_length": per_order, "length": length,
-            "spacing": area / length if length else float("inf")}
+            "spacing": area / length if length else float("inf"),
+            "loops": len(edges) - len(parent) + _pieces(edges, len(parent))}
+
+
+def _pieces(edges: np.ndarray, n: int) -> int:
+    """Connected pieces of the graph of ``n`` nodes and ``(E, 2)`` ``edges``."""
+    from scipy.sparse.csgraph import connected_components
+
+    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    return int(connected_components(graph, directed=False)[0])
 
 
 def _pipe_model(parent: np.ndarray, gamma: float,
