@@ -1,5 +1,5 @@
 """``morphogen match IMAGE``: find the model, parameters and scale that grow a pattern like the
-one in a picture (:func:`morphogen.match.match`)."""
+one in a picture, or in a vertex field of a mesh (:func:`morphogen.match.match`)."""
 
 from __future__ import annotations
 
@@ -19,9 +19,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "wavelength matches the picture's pixels, and write the best candidates: "
         "candidate_K.json (replay with `morphogen simulate --config`), sheet.png (target | "
         "best | next best), report.txt and match.json. Run the same command again to resume "
-        "an interrupted match.",
+        "an interrupted match. IMAGE may be a mesh (.ply, e.g. a pipeline's final.ply): one "
+        "vertex field (--field) is flattened onto the mesh's best-fit plane, only the pixels "
+        "the mesh covers are described, and wavelengths are quoted in mesh units too.",
     )
-    p.add_argument("image", metavar="IMAGE", help="picture file (PNG, JPEG, ...)")
+    p.add_argument("image", metavar="IMAGE",
+                   help="picture file (PNG, JPEG, ...) or mesh file (.ply)")
     p.add_argument("--models", metavar="NAME[,NAME...]",
                    help="candidate models: library names or model files (default: gray-scott, "
                    "schnakenberg, fitzhugh-nagumo, turing, brusselator)")
@@ -35,7 +38,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--channel", default="auto",
                    help="auto (first principal colour axis), luma, red, green, blue, saturation "
                    "or a colour axis R,G,B such as 1,-1,0")
-    p.add_argument("--crop", metavar="X,Y,W,H", help="match only this region (pixels)")
+    p.add_argument("--crop", metavar="X,Y,W,H", help="match only this region (pixels; "
+                   "pictures only)")
+    p.add_argument("--field", metavar="NAME",
+                   help="a mesh's vertex field to match, or 'colours' for its vertex colours "
+                   "(read through --channel); default: the first species (from pipeline.json "
+                   "or state.npz beside the file), else the colours, else the first field")
     p.add_argument("--polarity", choices=("auto", "as-is", "inverted"), default="auto",
                    help="whether the species' high is the picture's light (as-is), dark "
                    "(inverted) or either (auto)")
@@ -54,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
         else list(DEFAULT_MODELS)
     result = match(args.image, models=models, genes=args.gene, budget=args.budget,
                    minutes=args.minutes, channel=args.channel, crop=parse_crop(args.crop),
+                   field=args.field,
                    polarity=args.polarity, seed=args.seed, top=args.top, out=args.out,
                    progress=options.show_progress(args), log=lambda line: print(line, flush=True))
     print((result.directory / "report.txt").read_text(), end="")

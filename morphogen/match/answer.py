@@ -193,28 +193,35 @@ def grey_tile(f: np.ndarray, invert: bool, side: int, crop: int | None = None) -
     return rgb_tile(np.repeat(g[..., None], 3, axis=-1), side, crop)
 
 
-def rgb_tile(rgb: np.ndarray, side: int, crop: int | None = None) -> np.ndarray:
+def rgb_tile(rgb: np.ndarray, side: int, crop: int | None = None,
+             centre: tuple[int, int] | None = None) -> np.ndarray:
     """The centre square (side ``crop``, default the shorter side) of RGB ``(H, W, 3)`` in
-    ``[0, 1]``, resized to ``(side, side, 3)`` uint8."""
+    ``[0, 1]``, resized to ``(side, side, 3)`` uint8; ``centre`` (row, column) centres it
+    there instead, as near as the picture's edges allow."""
     from PIL import Image
 
     h, w = rgb.shape[:2]
     s = min(h, w, crop or h, crop or w)
-    top, left = (h - s) // 2, (w - s) // 2
+    row, col = centre if centre is not None else (h // 2, w // 2)
+    top = int(np.clip(row - s // 2, 0, h - s))
+    left = int(np.clip(col - s // 2, 0, w - s))
     img = Image.fromarray((np.clip(rgb[top:top + s, left:left + s], 0, 1) * 255).astype(np.uint8))
     return np.asarray(img.resize((side, side), Image.BILINEAR))
 
 
 def sheet(picture_rgb: np.ndarray, target: Signature, scale: float,
-          candidates: Sequence[Candidate], title: str, side: int = 192) -> np.ndarray:
+          candidates: Sequence[Candidate], title: str, side: int = 192,
+          centre: tuple[int, int] | None = None) -> np.ndarray:
     """Target | best | next best ...: uint8 RGB, every tile showing the same extent of the
-    picture's pixels, captioned with its family, wavelength and descriptor distance."""
+    picture's pixels, captioned with its family, wavelength and descriptor distance; the
+    target's tile is centred on ``centre`` (row, column) when given (a mesh's picture: a
+    point well inside the mesh)."""
     from morphogen.render.mosaic import mosaic
 
     extent = min(picture_rgb.shape[:2]) * scale
     for c in candidates:
         extent = min(extent, min(c.replay.shape) * c.pixels_per_cell)
-    tiles = [rgb_tile(picture_rgb, side, max(1, round(extent / scale)))]
+    tiles = [rgb_tile(picture_rgb, side, max(1, round(extent / scale)), centre)]
     labels = [f"target: {target.family}, λ {target.wavelength * scale:.1f} px"]
     for k, c in enumerate(candidates, start=1):
         cells = max(1, round(extent / c.pixels_per_cell))
@@ -225,10 +232,16 @@ def sheet(picture_rgb: np.ndarray, target: Signature, scale: float,
 
 
 def report_text(source: str, target: Signature, scale: float, candidates: Sequence[Candidate],
-                samples: Samples, seconds: float) -> str:
-    """The short text report."""
+                samples: Samples, seconds: float, *, pixel_size: float | None = None) -> str:
+    """The short text report; with ``pixel_size`` (a mesh target's mesh units per pixel) the
+    wavelengths and the answer's cells are quoted in mesh units too."""
+
+    def mesh(px: float) -> str:
+        return "" if pixel_size is None else f" ({px * pixel_size:.4g} mesh units)"
+
     lines = [f"match of {source}",
-             f"target: {target.family}, wavelength {target.wavelength * scale:.2f} px, "
+             f"target: {target.family}, wavelength {target.wavelength * scale:.2f} px"
+             f"{mesh(target.wavelength * scale)}, "
              f"spot index {target.spot_index:.2f}, coherence {target.coherence:.2f}, "
              f"covered {target.covered:.2f}",
              f"{len(samples)} candidates simulated in {seconds:.0f} s", ""]
@@ -237,15 +250,20 @@ def report_text(source: str, target: Signature, scale: float, candidates: Sequen
         polarity = " (picture inverted)" if c.invert else ""
         lines.append(f"#{k} {c.model}: {params}; dx={c.dx:.4g}, grid {c.size[0]}x{c.size[1]}, "
                      f"dt={c.dt:g}, {c.steps} steps, seed {c.seed}{polarity}")
-        lines.append(f"    {c.family}, wavelength {c.wavelength_px:.2f} px, descriptor distance "
+        cell = "" if pixel_size is None else \
+            f"; a cell is {c.pixels_per_cell * pixel_size:.4g} mesh units"
+        lines.append(f"    {c.family}, wavelength {c.wavelength_px:.2f} px{mesh(c.wavelength_px)}"
+                     f"{cell}, descriptor distance "
                      f"{c.replay_distance:.3f} (search {c.distance:.3f}, texture {c.texture:.3f});"
                      f" replay: morphogen simulate --config candidate_{k}.json")
     return "\n".join(lines) + "\n"
 
 
 def write_answer(stage: Path, picture_rgb: np.ndarray, target: Signature, scale: float,
-                 candidates: Sequence[Candidate], summary: dict, report: str) -> None:
-    """Write the answer's files into the staging directory ``stage``."""
+                 candidates: Sequence[Candidate], summary: dict, report: str,
+                 centre: tuple[int, int] | None = None) -> None:
+    """Write the answer's files into the staging directory ``stage`` (``centre``: see
+    :func:`sheet`)."""
     from morphogen.render.images import write_png
     from morphogen.util.io import write_atomic, write_json
 
@@ -257,6 +275,7 @@ def write_answer(stage: Path, picture_rgb: np.ndarray, target: Signature, scale:
         write_json(stage / "run.json", candidates[0].run)
     name = Path(summary["picture"]).name
     title = "match" if summary["picture"] == "array" else f"match: {name}"
-    write_png(stage / "sheet.png", sheet(picture_rgb, target, scale, candidates, title))
+    write_png(stage / "sheet.png", sheet(picture_rgb, target, scale, candidates, title,
+                                         centre=centre))
     write_json(stage / "match.json", summary)
     write_atomic(stage / "report.txt", lambda fh: fh.write(report.encode()))

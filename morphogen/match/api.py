@@ -7,7 +7,9 @@ flower model. This puts the library's pieces together: the picture is described 
 simulator's own descriptors (:mod:`morphogen.match.signature`), every candidate model's box is
 searched as batched populations (:mod:`morphogen.match.search`), and the best candidates come
 back at the picture's scale, each a ``run.json`` that ``morphogen simulate --config`` replays
-(:mod:`morphogen.match.answer`).
+(:mod:`morphogen.match.answer`). A mesh (a ``.ply`` file, e.g. a flower pipeline's
+``final.ply``) is matched through one of its vertex fields flattened onto the mesh's plane
+(:mod:`morphogen.match.mesh_picture`); its wavelengths are then quoted in mesh units too.
 
 Files (with ``out``): ``run.json`` (the best candidate), ``candidate_K.json`` and
 ``candidate_K.png`` (each candidate's replay), ``sheet.png`` (target | best | next best),
@@ -32,6 +34,7 @@ import numpy as np
 from morphogen.errors import MorphogenError
 from morphogen.match.answer import Candidate, answer, report_text, write_answer
 from morphogen.match.boxes import DEFAULT_MODELS, resolve_boxes
+from morphogen.match.mesh_picture import is_mesh_target, load_mesh_picture
 from morphogen.match.picture import Picture, load_picture
 from morphogen.match.search import Budget, Journal, Samples, run_search
 from morphogen.match.signature import Signature, signature
@@ -51,6 +54,7 @@ class MatchResult:
         samples: every scored search sample.
         directory: where the answer was written (``None`` without ``out``).
         seconds: wall time.
+        pixel_size: mesh units per pixel of a mesh target (``None`` for a picture).
     """
 
     candidates: list[Candidate]
@@ -59,6 +63,7 @@ class MatchResult:
     samples: Samples
     directory: Path | None
     seconds: float
+    pixel_size: float | None = None
 
     @property
     def best(self) -> Candidate:
@@ -66,8 +71,23 @@ class MatchResult:
 
 
 def describe_picture(picture: Picture) -> Signature:
-    """The signature of a picture (not periodic: mirrored before it is described)."""
-    return signature(picture.field, periodic=False)
+    """The signature of a picture (not periodic: mirrored before it is described; a mesh's
+    picture only where its mask is)."""
+    return signature(picture.field, periodic=False, mask=picture.mask)
+
+
+def load_target(image: str | Path | np.ndarray, *, channel: str = "auto",
+                crop: tuple[int, int, int, int] | None = None,
+                field: str | None = None) -> Picture:
+    """A picture file or array (:func:`~morphogen.match.picture.load_picture`), or a mesh file
+    with one vertex field flattened (:func:`~morphogen.match.mesh_picture.load_mesh_picture`)."""
+    if is_mesh_target(image):
+        if crop is not None:
+            raise MorphogenError("--crop applies to a picture, not to a mesh target")
+        return load_mesh_picture(image, field=field, channel=channel)  # type: ignore[arg-type]
+    if field is not None:
+        raise MorphogenError("--field applies to a mesh target (.ply), not to a picture")
+    return load_picture(image, channel=channel, crop=crop)
 
 
 def match(
@@ -79,6 +99,7 @@ def match(
     minutes: float | None = None,
     channel: str = "auto",
     crop: tuple[int, int, int, int] | None = None,
+    field: str | None = None,
     polarity: str = "auto",
     seed: int = 0,
     top: int = 3,
@@ -90,12 +111,15 @@ def match(
     """Find the models, parameters and scale that grow a pattern like ``image``.
 
     Args:
-        image: a picture file, or an array ``(H, W)`` / ``(H, W, 3)`` in ``[0, 1]``.
+        image: a picture file, an array ``(H, W)`` / ``(H, W, 3)`` in ``[0, 1]``, or a mesh
+            (``.ply``) whose vertex field ``field`` is matched.
         models: library names or model files (a model without a box needs ``genes``).
         genes: ``NAME=LOW:HIGH`` ranges replacing the models' boxes.
         budget: simulations of the search (the answer's verification runs come on top).
         minutes: stop searching after this wall time (then answer with what was found).
-        channel, crop: see :mod:`morphogen.match.picture`.
+        channel, crop: see :mod:`morphogen.match.picture` (``crop``: pictures only).
+        field: a mesh target's vertex field, or ``"colours"``; ``None`` chooses (see
+            :mod:`morphogen.match.mesh_picture`).
         polarity: one of :data:`POLARITIES`.
         top: number of candidates in the answer.
         out: answer directory (resumable; see the module docstring); ``None`` writes nothing.
@@ -122,17 +146,23 @@ def match(
         raise MorphogenError(f"top must be between 1 and 6, got {top}")
     if out is not None:
         check_run_dir(out)
-    picture = load_picture(image, channel=channel, crop=crop)
+    picture = load_target(image, channel=channel, crop=crop, field=field)
     boxes = resolve_boxes(list(models), list(genes))
     target = describe_picture(picture)
     identity = {"picture": hashlib.sha256(picture.field.tobytes()).hexdigest(),
                 "models": [b.model for b in boxes],
                 "genes": [[g.to_dict() for g in b.genes] for b in boxes],
                 "budget": int(budget), "polarity": polarity, "seed": int(seed)}
+    if picture.mask is not None:
+        identity["mask"] = hashlib.sha256(np.packbits(picture.mask).tobytes()).hexdigest()
     work = _work_dir(out)
     journal = Journal(work, identity)
     say = log or (lambda _line: None)
-    say(f"target: {target.family}, wavelength {target.wavelength * picture.scale:.1f} px; "
+    if picture.note:
+        say(f"{Path(picture.source).name}: {picture.note}")
+    units = "" if picture.pixel_size is None else \
+        f" ({target.wavelength * picture.pixel_size:.4g} mesh units)"
+    say(f"target: {target.family}, wavelength {target.wavelength * picture.scale:.1f} px{units}; "
         f"searching {', '.join(b.model for b in boxes)} ({budget} simulations)")
     total = int(budget) + int(top) + 1
     bar = ProgressBar(total, enabled=progress, unit="sim", desc="match")
@@ -146,7 +176,7 @@ def match(
             report(min(done, total), total)
 
     try:
-        samples = run_search(boxes, target, picture.field, budget=Budget(int(budget), minutes),
+        samples = run_search(boxes, target, picture.inner, budget=Budget(int(budget), minutes),
                              journal=journal, polarity=polarity, seed=int(seed), progress=tick)
         if not any(d < 5.0 for d in samples.distance):
             raise MorphogenError("no candidate formed a pattern; raise --budget or name other "
@@ -156,15 +186,22 @@ def match(
     finally:
         bar.close()
     seconds = time.perf_counter() - started
-    result = MatchResult(candidates, target, picture.scale, samples, None, seconds)
+    result = MatchResult(candidates, target, picture.scale, samples, None, seconds,
+                         picture.pixel_size)
     if out is not None:
         summary = {"picture": picture.source, "target": target.to_dict(),
                    "scale": picture.scale, "settings": identity, "seconds": round(seconds, 1),
                    "simulations": len(samples),
                    "candidates": [c.summary() for c in candidates]}
-        text = report_text(picture.source, target, picture.scale, candidates, samples, seconds)
+        if picture.pixel_size is not None:
+            summary.update(mesh={"note": picture.note, "pixel_size": picture.pixel_size,
+                                 "wavelength": target.wavelength * picture.pixel_size})
+        source = f"{picture.source} ({picture.note})" if picture.note else picture.source
+        text = report_text(source, target, picture.scale, candidates, samples, seconds,
+                           pixel_size=picture.pixel_size)
         with staged_dir(out) as stage:
-            write_answer(stage, picture.rgb, target, picture.scale, candidates, summary, text)
+            write_answer(stage, picture.rgb, target, picture.scale, candidates, summary, text,
+                         centre=picture.centre)
         shutil.rmtree(work, ignore_errors=True)
         result.directory = Path(out)
     return result

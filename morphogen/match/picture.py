@@ -17,6 +17,11 @@ image whose header claims more than :data:`MAX_PIXELS` pixels (a decompression b
 before it is decoded), a crop outside the image, a picture too small or blank in the chosen
 channel. A picture larger than :data:`WORK_SIDE` is reduced by area averaging (its scale is kept
 in :attr:`Picture.scale`, so wavelengths are still quoted in the original pixels).
+
+A picture may carry a mask (:attr:`Picture.mask`): a mesh flattened onto its plane
+(:mod:`morphogen.match.mesh_picture`) covers only part of its square pixels, and the signature
+then describes the pixels inside alone; :attr:`Picture.inner` is the largest rectangle of them
+(for what needs a full rectangle, the texture loss of the search).
 """
 
 from __future__ import annotations
@@ -55,12 +60,61 @@ class Picture:
         rgb: the cropped picture as shown on the answer sheet, ``(H, W, 3)`` float32.
         scale: original pixels per pixel of ``field`` (1 unless the picture was reduced).
         source: the file name (or ``"array"``).
+        mask: ``(H, W)`` bool, ``True`` where the picture is (a flattened mesh); ``None``: every
+            pixel. Outside it ``field`` holds the median inside and ``rgb`` white.
+        pixel_size: the length of a pixel of ``field`` in mesh units (a mesh target), or
+            ``None``.
+        note: how the picture was made, for the log and the report (``""`` for a picture file).
     """
 
     field: np.ndarray
     rgb: np.ndarray
     scale: float
     source: str
+    mask: np.ndarray | None = None
+    pixel_size: float | None = None
+    note: str = ""
+
+    @property
+    def inner(self) -> np.ndarray:
+        """``field`` where every pixel is inside: all of it, or the largest rectangle inside
+        :attr:`mask`, ``(h, w)``."""
+        if self.mask is None:
+            return self.field
+        x, y, w, h = largest_rectangle(self.mask)
+        return self.field[y:y + h, x:x + w]
+
+    @property
+    def centre(self) -> tuple[int, int] | None:
+        """The pixel (row, column) deepest inside :attr:`mask` (farthest from every pixel
+        outside), or ``None`` without a mask: where the answer sheet shows the picture."""
+        if self.mask is None:
+            return None
+        from scipy.ndimage import distance_transform_edt
+
+        depth = distance_transform_edt(np.pad(self.mask, 1))[1:-1, 1:-1]
+        row, col = np.unravel_index(int(np.argmax(depth)), depth.shape)
+        return int(row), int(col)
+
+
+def largest_rectangle(mask: np.ndarray) -> tuple[int, int, int, int]:
+    """The largest axis-aligned rectangle of ``True`` pixels of ``mask`` ``(H, W)``, as
+    ``(x, y, w, h)`` (the crop convention). Row by row, the runs of ``True`` ending there form a
+    histogram, whose largest rectangle one pass with a stack finds (``(0, 0, 1, 1)`` if none)."""
+    runs = np.zeros(mask.shape[1], np.int64)
+    best, box = 0, (0, 0, 1, 1)
+    for row in range(mask.shape[0]):
+        runs = np.where(mask[row], runs + 1, 0)
+        heights = [*runs.tolist(), 0]  # the zero closes every bar
+        stack: list[int] = []
+        for col, height in enumerate(heights):
+            while stack and heights[stack[-1]] >= height:
+                top = heights[stack.pop()]
+                left = stack[-1] + 1 if stack else 0
+                if top * (col - left) > best:
+                    best, box = top * (col - left), (left, row - top + 1, col - left, top)
+            stack.append(col)
+    return box
 
 
 def parse_crop(text: str | None) -> tuple[int, int, int, int] | None:

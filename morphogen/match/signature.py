@@ -21,6 +21,14 @@ to a picture and to a simulated species, so that what a picture does not fix doe
 5. **rotation**: every part is rotation invariant (ring averages, structure-tensor coherence,
    Euler characteristic, histograms); the global ``orientation`` and ``order`` are not used.
 
+6. **mask** (a flattened mesh covers part of its pixels): only the pixels inside count. The
+   field is centred on its mean inside and set to 0 outside, and zero-padded to ``2H x 2W``
+   (instead of mirrored) before its spectrum is taken; it is smoothed by normalised convolution
+   (``G*(m f) / G*m``, ``m`` the mask); the Euler characteristic is counted over the 2x2
+   windows that lie wholly inside (its density, so a stripe cut by the outline does not count as
+   a component), the coherence over the pixels whose neighbours are inside, the share above
+   threshold and the histogram over the pixels inside.
+
 A signature holds the family (``spots``, ``stripes``, ``holes``, ``mixed``, or ``uniform`` /
 ``blown-up``), the ``spot_index`` (Euler characteristic per wavelength cell), the local
 ``coherence``, the share ``covered`` above mid-level, the spectrum profile ``log P(x r̄)/P(r̄)``
@@ -35,6 +43,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from morphogen.errors import MorphogenError
 from morphogen.patterns.classify import classify
 
 RATIOS = np.geomspace(0.35, 2.8, 16)
@@ -121,10 +130,15 @@ def mirror(f: np.ndarray) -> np.ndarray:
     return np.concatenate([top, top[::-1]], axis=0)
 
 
-def signature(f: np.ndarray, *, periodic: bool, invert: bool = False) -> Signature:
+def signature(f: np.ndarray, *, periodic: bool, invert: bool = False,
+              mask: np.ndarray | None = None) -> Signature:
     """The signature of one field ``(H, W)`` (a simulated species: ``periodic=True``; a
-    picture: ``False``); ``invert`` reads ``1 - f`` (the other polarity)."""
+    picture: ``False``); ``invert`` reads ``1 - f`` (the other polarity); ``mask`` ``(H, W)``
+    bool limits it to the pixels inside (a picture only; module docstring, item 6)."""
     from scipy.ndimage import gaussian_filter
+
+    if mask is not None:
+        return _masked_signature(f, np.asarray(mask, bool), invert)
 
     g = normalise(f)
     if invert:
@@ -150,6 +164,77 @@ def signature(f: np.ndarray, *, periodic: bool, invert: bool = False) -> Signatu
                      spot_index=float(np.clip(chi / max(cells, 1e-9), -1.5, 1.5)),
                      coherence=d["coherence"], covered=d["covered"], profile=profile,
                      histogram=hist / max(hist.sum(), 1.0))
+
+
+def _masked_signature(f: np.ndarray, m: np.ndarray, invert: bool) -> Signature:
+    """:func:`signature` of the pixels of ``f`` inside ``m`` (module docstring, item 6)."""
+    from scipy.ndimage import binary_erosion, gaussian_filter
+
+    if f.shape != m.shape or m.sum() < 16:
+        raise MorphogenError(f"a mask {m.shape} with at least 16 pixels inside must cover the "
+                         f"field {f.shape}")
+    g = np.where(m, f, np.median(f[m]))
+    lo, hi = np.percentile(g[m], [1.0, 99.0])
+    if hi - lo <= 1e-9 * max(1.0, abs(hi)):
+        lo, hi = float(g[m].min()), float(g[m].max())
+    g = np.clip((g - lo) / max(hi - lo, 1e-12), 0.0, 1.0)
+    g = 1.0 - g if invert else g
+    h, w = g.shape
+
+    def padded(a: np.ndarray) -> np.ndarray:
+        centred = np.where(m, a - a[m].mean(), 0.0)
+        return np.pad(centred, ((0, h), (0, w))).astype(np.float32)
+
+    n = min(2 * h, 2 * w)
+    lam = wavelength(spectrum(padded(g)), n, min_ring=3)
+    weight = gaussian_filter(m.astype(np.float64), lam / 8.0, mode="constant")
+    smooth = gaussian_filter(np.where(m, g, 0.0), lam / 8.0, mode="constant")
+    smooth = np.where(m, smooth / np.maximum(weight, 1e-12), 0.0)
+    inside = smooth[m]
+    lo, hi = np.percentile(inside, [1.0, 99.0])
+    smooth = np.clip((smooth - lo) / max(hi - lo, 1e-12), 0.0, 1.0)
+    smooth = np.where(m, split_at(smooth, otsu(smooth[m])), 0.0)
+    fg = smooth > 0.5
+    corner, right, below, across = fg[:-1, :-1], fg[:-1, 1:], fg[1:, :-1], fg[1:, 1:]
+    whole = m[:-1, :-1] & m[:-1, 1:] & m[1:, :-1] & m[1:, 1:]
+    ones = corner.astype(int) + right + below + across
+    chi = (np.sum((ones == 1) & whole) - np.sum((ones == 3) & whole)
+           + 2 * np.sum((ones == 2) & (corner == across) & whole)) / 4.0
+    spot_index = chi / max(whole.sum() / lam**2, 1e-9)
+    coherence = _masked_coherence(smooth, binary_erosion(m), lam / 2.0)
+    centred = padded(smooth)
+    power = spectrum(centred)
+    freq = np.maximum(*np.meshgrid(np.abs(np.fft.fftfreq(2 * w)), np.abs(np.fft.fftfreq(2 * h))))
+    full = np.abs(np.fft.fft2(centred)) ** 2
+    d = {"level": float(np.max(np.abs(smooth[m]))), "range": float(np.ptp(smooth[m])),
+         "finite": 1.0, "spot_index": float(spot_index),
+         "grid_energy": float(full[freq >= 0.375].sum() / max(full.sum(), 1e-30)),
+         "activity": 0.0, "pulse": 0.0, "recurrence": 1.0, "persistence": 0.0}
+    family = str(classify({k: np.array([v]) for k, v in d.items()})[0])
+    rings = np.arange(len(power))
+    r_mean = n / lam
+    prof = np.interp(RATIOS * r_mean, rings, power, right=0.0)
+    top = max(float(np.interp(r_mean, rings, power)), 1e-30)
+    hist = np.histogram(smooth[m], bins=HIST_BINS, range=(0.0, 1.0))[0].astype(np.float64)
+    return Signature(family=family, wavelength=lam,
+                     spot_index=float(np.clip(spot_index, -1.5, 1.5)),
+                     coherence=coherence, covered=float(np.mean(fg[m])),
+                     profile=np.log10(np.maximum(prof / top, 1e-4)),
+                     histogram=hist / max(hist.sum(), 1.0))
+
+
+def _masked_coherence(f: np.ndarray, m: np.ndarray, sigma: float) -> float:
+    """The descriptors' local coherence (structure tensor smoothed over ``sigma``, weighted by
+    its trace) from the central differences at the pixels ``m`` (whose neighbours are inside)."""
+    from scipy.ndimage import gaussian_filter
+
+    gy, gx = np.gradient(f)
+    parts = [gaussian_filter(np.where(m, p, 0.0), sigma, mode="constant")
+             for p in (gx * gx, gy * gy, gx * gy)]
+    sxx, syy, sxy = (p[m] for p in parts)
+    trace = sxx + syy
+    coh = np.sqrt((sxx - syy) ** 2 + 4.0 * sxy**2) / np.maximum(trace, 1e-12)
+    return float(np.sum(coh * trace) / max(trace.sum(), 1e-12))
 
 
 def distance(a: Signature, b: Signature) -> float:
