@@ -1,0 +1,135 @@
+"""A fused single-thread Numba loop for Gray-Scott on a periodic 2D grid: the reference of
+``bench/bench_gs_single.py`` (needs Numba: ``.venv-bench``; never imported by the package).
+
+One explicit Euler step of the library model ``gray-scott`` (Skaggs eqs. 2.3-2.4) with the
+5-point Laplacian, ``dx = 1``, float32, state ``(2, H, W)`` (``u``, ``v``) in row-major order:
+
+.. math::
+    u' = u + dt\\,[(-uv^2 + F(1-u)) + D_u \\Delta u],\\qquad
+    v' = v + dt\\,[(uv^2 - (F+k)v) + D_v \\Delta v],
+
+    \\Delta f = ((f_N + f_S) + f_W) + f_E - 4 f
+
+in the order of operations of morphogen's step (``domains/stencils.py``,
+``models/library.py``, ``solvers/explicit.py``). Two buffers, swapped every step; each row is one
+loop over the interior columns with the neighbour rows and columns taken directly (no modulo; the
+wrapped row indices are chosen once per row and the two border columns are done apart), so LLVM
+vectorises the interior (16 floats a vector on AVX-512).
+
+Same arithmetic as XLA on CPU, which contracts ``a * b + c`` into fused multiply-adds and runs
+with flush-to-zero and denormals-are-zero (a denormal result or input reads as 0):
+
+- ``fastmath={"contract"}`` (:data:`FASTMATH`) and nothing else: contraction only, no
+  reassociation. LLVM does not always pick the same pairs to fuse as XLA (one step from a random
+  state: u bit-identical, 5 % of v one rounding apart), so the two agree to float32 rounding,
+  not bit for bit; without contraction, 27 % of cells differ after one step.
+- :func:`advance` sets both MXCSR bits (``0x8040``) of the calling thread for the duration of
+  the loop and restores the previous value after (Gray-Scott's ``v`` decays through the
+  denormal range far from the spots).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+FASTMATH = {"contract"}
+"""LLVM fast-math flags of the loop: fused multiply-adds, as XLA compiles."""
+
+FTZ_DAZ = 0x8040
+"""MXCSR bits (x86-64): flush-to-zero (bit 15) and denormals-are-zero (bit 6)."""
+
+
+def _mxcsr_call(builder, name, slot):
+    fnty = ir.FunctionType(ir.VoidType(), [slot.type])
+    builder.call(cgutils.get_or_insert_function(builder.module, fnty, name), [slot])
+
+
+@intrinsic
+def _stmxcsr(typingctx):
+    """The calling thread's MXCSR (``llvm.x86.sse.stmxcsr``)."""
+    def codegen(context, builder, signature, args):
+        slot = cgutils.alloca_once(builder, ir.IntType(32))
+        _mxcsr_call(builder, "llvm.x86.sse.stmxcsr", slot)
+        return builder.load(slot)
+
+    return types.uint32(), codegen
+
+
+@intrinsic
+def _ldmxcsr(typingctx, value):
+    """Set the calling thread's MXCSR (``llvm.x86.sse.ldmxcsr``)."""
+    def codegen(context, builder, signature, args):
+        slot = cgutils.alloca_once(builder, ir.IntType(32))
+        builder.store(args[0], slot)
+        _mxcsr_call(builder, "llvm.x86.sse.ldmxcsr", slot)
+        return context.get_dummy_value()
+
+    return types.none(types.uint32), codegen
+
+
+@numba.njit(cache=False)
+def get_mxcsr():
+    """MXCSR of the calling thread."""
+    return _stmxcsr()
+
+
+@numba.njit(cache=False)
+def set_mxcsr(value):
+    """Set MXCSR of the calling thread to ``value`` (``np.uint32``)."""
+    _ldmxcsr(value)
+
+
+@numba.njit(inline="always")
+def _cell(a, an, as_, b, bn, bs, ao, bo, x, xl, xr, du, dv, f, fk, dt):
+    one, four = np.float32(1.0), np.float32(4.0)
+    ac, bc = a[x], b[x]
+    la = an[x] + as_[x] + a[xl] + a[xr] - four * ac
+    lb = bn[x] + bs[x] + b[xl] + b[xr] - four * bc
+    r = ac * bc * bc
+    ao[x] = ac + dt * ((-r + f * (one - ac)) + du * la)
+    bo[x] = bc + dt * ((r - fk * bc) + dv * lb)
+
+
+@numba.njit(cache=False, fastmath=FASTMATH, error_model="numpy", boundscheck=False)
+def _row(a, an, as_, b, bn, bs, ao, bo, du, dv, f, fk, dt):
+    w = a.shape[0]
+    _cell(a, an, as_, b, bn, bs, ao, bo, 0, w - 1, 1, du, dv, f, fk, dt)
+    for x in range(1, w - 1):
+        _cell(a, an, as_, b, bn, bs, ao, bo, x, x - 1, x + 1, du, dv, f, fk, dt)
+    _cell(a, an, as_, b, bn, bs, ao, bo, w - 1, w - 2, 0, du, dv, f, fk, dt)
+
+
+@numba.njit(cache=False, fastmath=FASTMATH, error_model="numpy", boundscheck=False)
+def _advance(cur, nxt, steps, du, dv, f, k, dt):
+    h = cur.shape[1]
+    fk = f + k
+    for _ in range(steps):
+        for y in range(h):
+            yn = y - 1 if y > 0 else h - 1
+            ys = y + 1 if y < h - 1 else 0
+            _row(cur[0, y], cur[0, yn], cur[0, ys], cur[1, y], cur[1, yn], cur[1, ys],
+                 nxt[0, y], nxt[1, y], du, dv, f, fk, dt)
+        cur, nxt = nxt, cur
+    return cur
+
+
+def advance(u: np.ndarray, params: dict, steps: int, dt: float, *, ftz: bool = True
+            ) -> np.ndarray:
+    """``steps`` Euler steps of ``u`` (float32, shape ``(2, H, W)``, a copy is advanced) with
+    the parameters ``F``, ``k``, ``Du``, ``Dv``; with ``ftz`` under flush-to-zero and
+    denormals-are-zero, as XLA computes."""
+    f, k, du, dv = (np.float32(params[n]) for n in ("F", "k", "Du", "Dv"))
+    cur = np.ascontiguousarray(u, np.float32).copy()
+    nxt = np.empty_like(cur)
+    old = get_mxcsr()
+    if ftz:
+        set_mxcsr(np.uint32(old | FTZ_DAZ))
+    try:
+        return _advance(cur, nxt, steps, du, dv, f, k, np.float32(dt))
+    finally:
+        set_mxcsr(old)
