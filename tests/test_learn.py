@@ -119,15 +119,15 @@ def test_seed_states_are_periodic_gaussian_blobs():
 def test_short_training_halves_the_loss():
     """A short run at least halves the texture loss of seeds grown over the training horizon.
 
-    With N_pool = N_batch = 1 and R_seed = 1 every iteration grows a fresh seed, so a hundred
+    With N_pool = N_batch = 1 and R_seed = 1 every iteration grows a fresh seed, so forty
     iterations learn the first thing Algorithm 1 must learn: turning a seed into the target's
     colours and blobs. (Full pool training, which also learns to persist and fill the plane,
     takes a few hundred iterations of the cpu preset: docs/neural-rd.md.)
     """
-    config = replace(TINY, channels=8, hidden=24, size=32, pool_size=1, batch_size=1,
-                     seed_every=1, min_steps=24, max_steps=32, chunk=8, iterations=100,
-                     learning_rate=1e-2, decay_at=(80,))
-    run = new_run(config, synthetic_texture("dots", 32))
+    config = replace(TINY, channels=8, hidden=24, size=24, pool_size=1, batch_size=1,
+                     seed_every=1, min_steps=16, max_steps=24, chunk=8, iterations=40,
+                     learning_rate=1e-2, decay_at=(32,))
+    run = new_run(config, synthetic_texture("dots", 24))
     loss = build_loss(config, run.target)
 
     def grown_loss(weights):

@@ -46,8 +46,9 @@ def test_kernel_matches_the_padded_step_on_random_networks():
     key = jax.random.key(4)
     ops = Operators(mode="network", p_duplicate=0.5)
     pop = random_population(key, make_genome(SPEC, [0.0] * 12), SPEC, 13, ops)
+    breed = jax.jit(lambda k, p, f: next_generation(k, p, f, SPEC, ops))
     for gen in range(4):  # a few generations grow more evolvable reactions
-        pop = next_generation(jax.random.fold_in(key, gen), pop, jnp.arange(13.0), SPEC, ops)
+        pop = breed(jax.random.fold_in(key, gen), pop, jnp.arange(13.0))
     # moderate rates so that 30 steps stay finite: k < 0.1
     pop = pop._replace(exponent=jnp.clip(pop.exponent, -4, -2))
     params = genome_params(pop, SPEC)

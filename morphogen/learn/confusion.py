@@ -110,6 +110,7 @@ def confusion_table(images: Mapping[str, np.ndarray], targets: Mapping[str, np.n
                     n_rot: int = 36) -> Confusion:
     """The losses of ``images[rule]`` (``(seeds, H, W, 3)`` in ``[0, 1]``) against every target
     (``(S, S, 3)``), with the random-feature texture loss of the library's training."""
+    import jax
     import jax.numpy as jnp
 
     from morphogen.learn.session import build_loss
@@ -122,17 +123,24 @@ def confusion_table(images: Mapping[str, np.ndarray], targets: Mapping[str, np.n
     counts = {s.shape[0] for s in stacks}
     if len(counts) != 1 or any(s.ndim != 4 or s.shape[-1] != 3 for s in stacks):
         raise MorphogenError("every rule needs the same number of (H, W, 3) images")
-    batch = jnp.asarray(np.concatenate(stacks))
-    refs = jnp.asarray(np.stack([np.roll(np.asarray(targets[n], np.float32), REFERENCE_SHIFT,
-                                         axis=(0, 1)) for n in names]))
+    refs = np.stack([np.roll(np.asarray(targets[n], np.float32), REFERENCE_SHIFT, axis=(0, 1))
+                     for n in names])
     k = counts.pop()
+    n_images = len(rules) * k
+    # the rules' images and the shifted targets in one batch, through one compiled program that
+    # takes the target's loss as an argument (a pytree): one compilation for every target
+    batch = jnp.asarray(np.concatenate([*stacks, refs]) if refs.shape[1:] == stacks[0].shape[1:]
+                        else np.concatenate(stacks))
+    apply = jax.jit(lambda loss, rgb: loss(rgb))
     losses = np.zeros((len(rules), len(names), k))
     references = np.zeros((len(names), len(names)))
     config = preset("cpu", n_rot=n_rot)
     for j, name in enumerate(names):
         loss = build_loss(config, np.asarray(targets[name], np.float32))
-        losses[:, j, :] = np.asarray(loss(batch)).reshape(len(rules), k)
-        references[:, j] = np.asarray(loss(refs))
+        values = np.asarray(apply(loss, batch))
+        losses[:, j, :] = values[:n_images].reshape(len(rules), k)
+        references[:, j] = (values[n_images:] if len(values) > n_images
+                            else np.asarray(apply(loss, jnp.asarray(refs))))
     return Confusion(rules, names, losses, references)
 
 
