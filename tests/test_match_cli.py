@@ -7,6 +7,7 @@ import zlib
 
 import numpy as np
 import pytest
+from match_support import assert_refused
 from PIL import Image
 
 from morphogen.cli.main import main
@@ -66,14 +67,7 @@ def _cases(tmp_path):
                                   "unknown model", "model without box", "bad gene", "bad crop",
                                   "bad channel", "tiny budget"])
 def test_bad_input_is_one_line_and_writes_nothing(case, tmp_path, capsys):
-    argv, words = _cases(tmp_path)[case]
-    out = tmp_path / "answer"
-    assert main(["match", *argv, "--out", str(out)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith("morphogen: error:"), err
-    assert words in err, err
-    assert not out.exists()
-    assert not (tmp_path / ".answer.match-work").exists()
+    assert_refused(*_cases(tmp_path)[case], tmp_path, capsys)
 
 
 def test_a_journal_of_another_match_is_refused(tmp_path):

@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+from match_support import assert_refused
 
 from morphogen.cli.main import main
 from morphogen.domains.mesh import Mesh
@@ -207,14 +208,7 @@ def _bad_cases(tmp_path):
 @pytest.mark.parametrize("case", ["missing field", "no faces", "malformed", "not PLY",
                                   "constant field", "crop", "channel of a field"])
 def test_a_bad_mesh_is_one_line_and_writes_nothing(case, tmp_path, capsys):
-    argv, words = _bad_cases(tmp_path)[case]
-    out = tmp_path / "answer"
-    assert main(["match", *argv, "--out", str(out)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith("morphogen: error:"), err
-    assert words in err, err
-    assert not out.exists()
-    assert not (tmp_path / ".answer.match-work").exists()
+    assert_refused(*_bad_cases(tmp_path)[case], tmp_path, capsys)
 
 
 def test_field_is_refused_for_a_picture(tmp_path, capsys):

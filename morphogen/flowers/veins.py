@@ -195,19 +195,12 @@ def space_colonisation(
         influence=influence, gamma=gamma, tip_radius=tip_radius, refill=refill,
         birth=birth, min_branch=min_branch)
 
-    project = SurfaceProjector(mesh)
-    normals = np.cross(*(mesh.vertices[mesh.faces[:, i]] - mesh.vertices[mesh.faces[:, 0]]
-                         for i in (1, 2)))
-    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
-    attract = surface_points(mesh, points, density=density, seed=seed)
-    nodes, face = project(mesh.vertices[seeds])
-    piece = _face_pieces(mesh) if same_piece else None
-    nodes, face = [nodes], [face]
+    project, normals, piece, roots, attract, pool = growth_start(
+        mesh, seeds, points=points, density=density, seed=seed, refill=refill,
+        iterations=iterations, kill=kill, same_piece=same_piece)
+    nodes, face = [roots[0]], [roots[1]]
     parent = [np.full(len(seeds), -1)]
     all_nodes = nodes[0]
-    attract = attract[cKDTree(all_nodes).query(attract)[0] > kill]
-    pool = surface_points(mesh, refill * iterations, density=density, seed=seed + 1) \
-        if refill else np.zeros((0, 3))
     for it in range(iterations):
         if refill:
             attract = _refill(attract, pool[it * refill:(it + 1) * refill], all_nodes,
@@ -289,6 +282,25 @@ def check_options(mesh: Mesh, seeds: np.ndarray, *, points: int, iterations: int
         raise MorphogenError(f"vein birth must be positive and min_branch non-negative, got "
                              f"{birth:g}, {min_branch:g}")
     return seeds, step, kill, influence, tip_radius, birth
+
+
+def growth_start(mesh: Mesh, seeds: np.ndarray, *, points: int, density: np.ndarray | None,
+                 seed: int, refill: int, iterations: int, kill: float, same_piece: bool):
+    """What open and closed growth start from: the surface projector, unit face normals, the
+    faces' pieces (``same_piece``, else ``None``), the roots projected on the surface
+    (positions, faces), the attraction points farther than ``kill`` from every root and the
+    refill pool (``refill * iterations`` candidates)."""
+    project = SurfaceProjector(mesh)
+    normals = np.cross(*(mesh.vertices[mesh.faces[:, i]] - mesh.vertices[mesh.faces[:, 0]]
+                         for i in (1, 2)))
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+    attract = surface_points(mesh, points, density=density, seed=seed)
+    roots = project(mesh.vertices[seeds])
+    piece = _face_pieces(mesh) if same_piece else None
+    attract = attract[cKDTree(roots[0]).query(attract)[0] > kill]
+    pool = surface_points(mesh, refill * iterations, density=density, seed=seed + 1) \
+        if refill else np.zeros((0, 3))
+    return project, normals, piece, roots, attract, pool
 
 
 def _face_pieces(mesh: Mesh) -> np.ndarray:

@@ -56,14 +56,13 @@ from scipy.spatial import cKDTree
 
 from morphogen.domains.mesh import Mesh
 from morphogen.errors import MorphogenError
-from morphogen.flowers.sampling import surface_points
 from morphogen.flowers.veins import (
     SurfaceProjector,
     VeinGraph,
-    _face_pieces,
     _pipe_model,
     _refill,
     check_options,
+    growth_start,
     space_colonisation,
 )
 
@@ -180,16 +179,10 @@ def closed_colonisation(
         mesh, seeds, points=points, iterations=iterations, step=step, kill=kill,
         influence=influence, gamma=gamma, tip_radius=tip_radius, refill=refill,
         birth=birth, min_branch=min_branch)
-    project = SurfaceProjector(mesh)
-    normals = np.cross(*(mesh.vertices[mesh.faces[:, i]] - mesh.vertices[mesh.faces[:, 0]]
-                         for i in (1, 2)))
-    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
-    piece = _face_pieces(mesh) if same_piece else None
-    attract = surface_points(mesh, points, density=density, seed=seed)
-    net = _Network(*project(mesh.vertices[seeds]))
-    attract = attract[cKDTree(net.nodes).query(attract)[0] > kill]
-    pool = surface_points(mesh, refill * iterations, density=density, seed=seed + 1) \
-        if refill else np.zeros((0, 3))
+    project, normals, piece, roots, attract, pool = growth_start(
+        mesh, seeds, points=points, density=density, seed=seed, refill=refill,
+        iterations=iterations, kill=kill, same_piece=same_piece)
+    net = _Network(*roots)
     hops = int(np.ceil(2.0 * kill / step))
     for it in range(iterations):
         if refill:
