@@ -12,9 +12,11 @@ since a reaction-diffusion pattern's wavelength is a physical length (set by the
 lengths, Turing's ``2π/k*``), so its count of cells scales as ``1/dx``. The grid covers the picture
 (``H / ppc`` by ``W / ppc`` cells, at most :data:`MAX_SIDE`), ``dt`` is the model's, reduced to the
 explicit stability limit at the new ``dx`` when needed, for the same simulated time. Each
-candidate is then simulated exactly as its ``run.json`` says (the *verification* run), its
-wavelength measured, and for the best candidate ``dx`` corrected once by the measured ratio
-(discretisation and the finite domain shift ``λ`` by a few per cent) and verified again.
+candidate is then simulated exactly as its ``run.json`` says (the *verification* run) and
+measured; the candidates are ranked by their replay's descriptor distance to the picture (a
+sample that scored best on the search grid can form another pattern at the picture's scale),
+and for the best one ``dx`` is corrected once by the measured wavelength ratio (discretisation
+and the finite domain shift ``λ`` by a few per cent) and verified again.
 """
 
 from __future__ import annotations
@@ -124,21 +126,31 @@ def answer(samples: Samples, boxes: Sequence[Box], target: Signature, shape: tup
     side = np.array(shape, float) * scale / ppc
     side = side * min(1.0, MAX_SIDE / side.max())
     size = tuple(int(max(32, round(s))) for s in side)
+    picks = pick(samples, boxes, top)
+    verified = [_verify(by_name[samples.model[i]], samples, i,
+                        by_name[samples.model[i]].dx * samples.wavelength[i] / cells, size, seed,
+                        target, journal, f"verify-{rank}", progress)
+                for rank, i in enumerate(picks)]
+    # the replays at the answer's spacing rank the candidates: one that scored best on the
+    # search grid can form another pattern (or none) at the picture's scale
+    order = sorted(range(len(picks)), key=lambda r: (_finite(verified[r].replay_distance), r))
     out = []
-    for rank, i in enumerate(pick(samples, boxes, top)):
-        box = by_name[samples.model[i]]
-        dx = box.dx * samples.wavelength[i] / cells
-        cand = _verify(box, samples, i, dx, size, seed, target, journal, f"verify-{rank}",
-                       progress)
+    for r in order:
+        cand = verified[r]
         lam = cand.wavelength_px
-        if rank == 0 and abs(lam / cells - 1.0) > CORRECT_ABOVE:
-            cand = _verify(box, samples, i, dx * lam / cells, size, seed, target, journal,
-                           "verify-0-corrected", progress)
+        if not out and abs(lam / cells - 1.0) > CORRECT_ABOVE:
+            i = picks[r]
+            cand = _verify(by_name[samples.model[i]], samples, i, cand.dx * lam / cells, size,
+                           seed, target, journal, f"verify-{r}-corrected", progress)
         cand.wavelength_px *= ppc
         cand.pixels_per_cell = ppc
         cand.run["matched"] = cand.summary()
         out.append(cand)
     return out
+
+
+def _finite(x: float) -> float:
+    return x if np.isfinite(x) else np.inf
 
 
 def _verify(box: Box, samples: Samples, i: int, dx: float, size: tuple[int, int], seed: int,
