@@ -13,9 +13,12 @@ target is recoloured through a colour map and turned, and gets one more degradat
   scale that fitness implies (the picture is stretched over the 64² grid).
 
 Reported: whether the model and the family (of the clean target, by the same descriptors) are
-found, the relative wavelength error in the picture's pixels, for the right model the mean
-parameter error in units of the box's ranges, and the wall time (2 shared CPU cores). Writes
-``bench/results/match.json``; ``--quick`` runs the first targets only.
+found, the family the degraded picture itself reads as, the relative wavelength error in the
+picture's pixels, for the right model the mean parameter error in units of the box's ranges,
+and the wall time (2 shared CPU cores). Writes
+``bench/results/match.json``; ``--quick`` runs the first targets only; ``--markdown`` prints
+docs/match.md's tables from the results. Each finished target is
+also appended to ``match.json.partial``, so an interrupted run resumes where it stopped.
 """
 
 from __future__ import annotations
@@ -30,19 +33,33 @@ from pathlib import Path
 import numpy as np
 
 BUDGET = 64
-TARGETS = [  # model, genes, expected regime (the measured family is what counts)
+TARGETS = [  # model, genes, expected regime (the measured family is what counts): the five
+    # default models, five regimes each, chosen from a 5 x 5 survey of each box at these settings
     ("gray-scott", {"F": 0.035, "k": 0.064}, "spots"),
     ("gray-scott", {"F": 0.032, "k": 0.058}, "stripes"),
     ("gray-scott", {"F": 0.042, "k": 0.059}, "holes"),
     ("gray-scott", {"F": 0.045, "k": 0.0625}, "stripes"),
+    ("gray-scott", {"F": 0.029, "k": 0.055}, "holes"),
     ("fitzhugh-nagumo", {"alpha": 0.0, "epsilon": 2.5}, "stripes"),
     ("fitzhugh-nagumo", {"alpha": -0.15, "epsilon": 4.5}, "spots"),
     ("fitzhugh-nagumo", {"alpha": 0.15, "epsilon": 4.5}, "holes"),
+    ("fitzhugh-nagumo", {"alpha": -0.27, "epsilon": 2.3}, "spots"),
+    ("fitzhugh-nagumo", {"alpha": -0.27, "epsilon": 7.7}, "stripes"),
     ("schnakenberg", {"a": 0.1, "b": 0.9}, "spots"),
-    ("schnakenberg", {"a": 0.2, "b": 1.3}, "spots"),
+    ("schnakenberg", {"a": 0.034, "b": 1.54}, "spots"),
+    ("schnakenberg", {"a": 0.223, "b": 1.54}, "mixed"),
+    ("schnakenberg", {"a": 0.286, "b": 0.46}, "stripes"),
+    ("schnakenberg", {"a": 0.286, "b": 1.54}, "stripes"),
     ("turing", {"alpha": 16.0, "beta": 13.8}, "stripes"),
-    ("turing", {"alpha": 14.4, "beta": 11.8}, "mixed"),
-    ("brusselator", {"a": 3.2, "b": 7.4}, "spots"),
+    ("turing", {"alpha": 14.2, "beta": 11.1}, "holes"),
+    ("turing", {"alpha": 16.0, "beta": 12.9}, "mixed"),
+    ("turing", {"alpha": 14.2, "beta": 12.9}, "spots"),
+    ("turing", {"alpha": 19.6, "beta": 11.1}, "stripes"),
+    ("brusselator", {"a": 2.2, "b": 4.4}, "spots"),
+    ("brusselator", {"a": 4.0, "b": 6.2}, "holes"),
+    ("brusselator", {"a": 4.0, "b": 8.0}, "mixed"),
+    ("brusselator", {"a": 3.1, "b": 11.6}, "spots"),
+    ("brusselator", {"a": 4.9, "b": 4.4}, "stripes"),
 ]
 EXTRA = ["rescale x0.6", "rescale x1.8", "blur", "noise", "jpeg", "crop"]
 CMAPS = ["viridis", "magma", "cividis", "copper", "bone", "plasma"]
@@ -139,19 +156,64 @@ def baseline(rgb: np.ndarray, models, budget: int, seed: int = 0) -> dict:
             "wavelength_px": sig.wavelength * px_per_cell}
 
 
+def _genes_text(genes: dict) -> str:
+    return ", ".join(f"{k}={v:g}" for k, v in genes.items())
+
+
+def markdown(record: dict) -> str:
+    """docs/match.md's per-target table and summary from a results record."""
+    pct = lambda x: f"{100 * x:.1f} %" if x < 0.1 else f"{100 * x:.0f} %"  # noqa: E731
+    lines = ["| # | truth | family | picture | read as | λ px | match: model, family | λ err "
+             "| param err | s | baseline: model, family | λ err |", "|" + "---|" * 12]
+    for r in record["targets"]:
+        m, b = r["match"], r["baseline"]
+        err = "–" if m["param_error"] is None else f"{m['param_error']:.2f}"
+        lines.append(f"| {r['target']} | {r['model']} {_genes_text(r['genes'])} | {r['family']} "
+                     f"| {r['degraded']} | {r.get('picture_family', '?')} "
+                     f"| {r['wavelength_px']:.1f} | {m['model']}, {m['family']} "
+                     f"| {pct(m['wavelength_error'])} | {err} | {m['seconds']:.0f} "
+                     f"| {b['model']}, {b['family']} | {pct(b['wavelength_error'])} |")
+    n = len(record["targets"])
+    lines += ["", "| | right family | right model | wavelength within 10 % | median wavelength "
+              "error | median time per picture |", "|---|---|---|---|---|---|"]
+    for who, label in (("match", "`match`"), ("baseline", "random search, target fitness")):
+        x = record["summary"][who]
+        lines.append(f"| {label} | {pct(x['right_family'])} ({round(x['right_family'] * n)}/{n}) "
+                     f"| {pct(x['right_model'])} ({round(x['right_model'] * n)}/{n}) "
+                     f"| {pct(x['wavelength_within_10pct'])} "
+                     f"| {pct(x['median_wavelength_error'])} | {x['median_seconds']:.0f} s |")
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--markdown", action="store_true",
+                        help="print docs/match.md's tables from --out and stop")
     parser.add_argument("--quick", type=int, default=0, help="only the first N targets")
     parser.add_argument("--budget", type=int, default=BUDGET)
     parser.add_argument("--out", default="bench/results/match.json")
     parser.add_argument("--sheets", default=None, help="write each answer's sheet here")
     args = parser.parse_args()
+    if args.markdown:
+        print(markdown(json.loads(Path(args.out).read_text())))
+        return
     from morphogen.match import DEFAULT_MODELS, match
     from morphogen.match.boxes import BOXES
 
     targets = TARGETS[: args.quick] if args.quick else TARGETS
+    # finished targets are kept in OUT.partial (a JSON line each): an interrupted run resumes
+    partial = Path(args.out + ".partial")
+    done = {}
+    if partial.is_file():
+        for line in partial.read_text().splitlines():
+            row = json.loads(line)
+            if row.get("budget") == args.budget:
+                done[row["target"]] = row
     rows = []
     for k, (model, genes, regime) in enumerate(targets):
+        if k in done and done[k]["model"] == model and done[k]["genes"] == genes:
+            rows.append(done[k])
+            continue
         field, truth = simulate_target(model, genes)
         rgb, scale, label = degrade(field, k)
         lam_true = truth.wavelength * scale
@@ -173,6 +235,7 @@ def main() -> None:
         row = {
             "target": k, "model": model, "genes": genes, "regime": regime,
             "family": truth.family, "degraded": label, "wavelength_px": round(lam_true, 2),
+            "picture_family": result.target.family,
             "match": {"model": best.model, "family": best.family, "invert": best.invert,
                       "params": best.params, "wavelength_px": round(best.wavelength_px, 2),
                       "wavelength_error": round(abs(best.wavelength_px / lam_true - 1), 4),
@@ -184,6 +247,9 @@ def main() -> None:
         }
         rows.append(row)
         print(json.dumps(row), flush=True)
+        partial.parent.mkdir(parents=True, exist_ok=True)
+        with partial.open("a") as f:
+            f.write(json.dumps({**row, "budget": args.budget}) + "\n")
     summary = {}
     for who in ("match", "baseline"):
         r = [row[who] for row in rows]
@@ -199,7 +265,10 @@ def main() -> None:
     record = {"budget": args.budget, "targets": rows, "summary": summary,
               "load_average": os.getloadavg(), "cpus": os.cpu_count()}
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+    tmp = Path(args.out + ".tmp")
+    tmp.write_text(json.dumps(record, indent=1) + "\n")
+    tmp.replace(args.out)
+    partial.unlink(missing_ok=True)
     print(json.dumps(summary, indent=1))
 
 
