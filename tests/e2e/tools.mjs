@@ -221,7 +221,12 @@ export async function openRunFile(page, out) {
   // a file that is not a run file is refused in one line
   writeFileSync(join(out, 'not-a-run.json'), JSON.stringify({ hello: 1 }));
   await page.setInputFiles('#ex-open', join(out, 'not-a-run.json'));
-  await page.waitForSelector('#ex-error:not([hidden])');
+  // this file's refusal (it names the file), not an earlier message still in the box: under
+  // load a slow-frame notice can be showing, and the next frame clears it
+  await page.waitForFunction(() => {
+    const e = document.getElementById('ex-error');
+    return e && !e.hidden && e.textContent.startsWith('not-a-run.json');
+  }, null, { timeout: 60000 });
   return { opened: { F: s.params.F, cmap: s.cmap, size: s.size, height: s.height, scheme: s.scheme,
     model: s.model }, openError: await page.textContent('#ex-error') };
 }
