@@ -43,6 +43,7 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
 from morphogen.domains.mesh import Mesh
+from morphogen.domains.mesh_geometry import face_normals
 from morphogen.errors import MorphogenError
 from morphogen.flowers.sampling import surface_points
 
@@ -291,8 +292,7 @@ def growth_start(mesh: Mesh, seeds: np.ndarray, *, points: int, density: np.ndar
     (positions, faces), the attraction points farther than ``kill`` from every root and the
     refill pool (``refill * iterations`` candidates)."""
     project = SurfaceProjector(mesh)
-    normals = np.cross(*(mesh.vertices[mesh.faces[:, i]] - mesh.vertices[mesh.faces[:, 0]]
-                         for i in (1, 2)))
+    normals = face_normals(mesh.vertices, mesh.faces)
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
     attract = surface_points(mesh, points, density=density, seed=seed)
     roots = project(mesh.vertices[seeds])

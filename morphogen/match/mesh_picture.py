@@ -73,6 +73,7 @@ def load_mesh_picture(path: str | Path, *, field: str | None = None,
                       channel: str = "auto") -> Picture:
     """Read a PLY mesh and flatten one vertex field into a masked :class:`Picture` (module
     docstring), ``pixel_size`` in mesh units."""
+    from morphogen.domains.mesh_geometry import face_normals
     from morphogen.domains.ply import load_mesh
 
     path = Path(path)
@@ -82,9 +83,8 @@ def load_mesh_picture(path: str | Path, *, field: str | None = None,
     pixel = float(np.ptp(uv, axis=0).max()) / (WORK_SIDE - 2 * MARGIN)
     channels = grey[:, None] if rgb is None else np.column_stack([grey, rgb])
     image, face = rasterise(uv, depth, mesh.faces, channels, pixel)
-    corners = mesh.vertices[mesh.faces]
-    area = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]),
-                          axis=1)  # twice each triangle's area, as _signed_areas projected
+    # twice each triangle's area, as _signed_areas projected
+    area = np.linalg.norm(face_normals(mesh.vertices, mesh.faces), axis=1)
     steep = np.abs(_signed_areas(uv, mesh.faces)) < MIN_COSINE * area
     mask = (face >= 0) & ~steep[np.maximum(face, 0)]
     h, w = mask.shape

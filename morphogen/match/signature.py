@@ -149,21 +149,32 @@ def signature(f: np.ndarray, *, periodic: bool, invert: bool = False,
     smooth = normalise(gaussian_filter(torus, lam / 8.0, mode="wrap"))
     smooth = split_at(smooth, otsu(smooth))
     d = {k: float(v) for k, v in _describe(smooth).items()}
-    d.update(activity=0.0, pulse=0.0, recurrence=1.0, persistence=0.0)
-    family = str(classify({k: np.array([v]) for k, v in d.items()})[0])
-    power = spectrum(smooth)
+    cells = smooth.size / lam**2
+    return Signature(family=_family(d), wavelength=lam,
+                     spot_index=float(np.clip(d["euler"] / max(cells, 1e-9), -1.5, 1.5)),
+                     coherence=d["coherence"], covered=d["covered"],
+                     profile=_profile(spectrum(smooth), n, lam), histogram=_histogram(smooth))
+
+
+def _family(d: dict[str, float]) -> str:
+    """The family of one still field from its descriptors ``d`` (nothing moves in it)."""
+    d = {**d, "activity": 0.0, "pulse": 0.0, "recurrence": 1.0, "persistence": 0.0}
+    return str(classify({k: np.array([v]) for k, v in d.items()})[0])
+
+
+def _profile(power: np.ndarray, n: int, lam: float) -> np.ndarray:
+    """``log10 P(x r̄) / P(r̄)`` at :data:`RATIOS` ``x`` of the mean ring ``r̄ = n / λ``."""
     rings = np.arange(len(power))
     r_mean = n / lam
     prof = np.interp(RATIOS * r_mean, rings, power, right=0.0)
     top = max(float(np.interp(r_mean, rings, power)), 1e-30)
-    profile = np.log10(np.maximum(prof / top, 1e-4))
-    hist = np.histogram(smooth, bins=HIST_BINS, range=(0.0, 1.0))[0].astype(np.float64)
-    cells = smooth.size / lam**2
-    chi = d["euler"]
-    return Signature(family=family, wavelength=lam,
-                     spot_index=float(np.clip(chi / max(cells, 1e-9), -1.5, 1.5)),
-                     coherence=d["coherence"], covered=d["covered"], profile=profile,
-                     histogram=hist / max(hist.sum(), 1.0))
+    return np.log10(np.maximum(prof / top, 1e-4))
+
+
+def _histogram(values: np.ndarray) -> np.ndarray:
+    """The share of ``values`` in each of :data:`HIST_BINS` bins of ``[0, 1]``."""
+    hist = np.histogram(values, bins=HIST_BINS, range=(0.0, 1.0))[0].astype(np.float64)
+    return hist / max(hist.sum(), 1.0)
 
 
 def _masked_signature(f: np.ndarray, m: np.ndarray, invert: bool) -> Signature:
@@ -208,19 +219,11 @@ def _masked_signature(f: np.ndarray, m: np.ndarray, invert: bool) -> Signature:
     full = np.abs(np.fft.fft2(centred)) ** 2
     d = {"level": float(np.max(np.abs(smooth[m]))), "range": float(np.ptp(smooth[m])),
          "finite": 1.0, "spot_index": float(spot_index),
-         "grid_energy": float(full[freq >= 0.375].sum() / max(full.sum(), 1e-30)),
-         "activity": 0.0, "pulse": 0.0, "recurrence": 1.0, "persistence": 0.0}
-    family = str(classify({k: np.array([v]) for k, v in d.items()})[0])
-    rings = np.arange(len(power))
-    r_mean = n / lam
-    prof = np.interp(RATIOS * r_mean, rings, power, right=0.0)
-    top = max(float(np.interp(r_mean, rings, power)), 1e-30)
-    hist = np.histogram(smooth[m], bins=HIST_BINS, range=(0.0, 1.0))[0].astype(np.float64)
-    return Signature(family=family, wavelength=lam,
+         "grid_energy": float(full[freq >= 0.375].sum() / max(full.sum(), 1e-30))}
+    return Signature(family=_family(d), wavelength=lam,
                      spot_index=float(np.clip(spot_index, -1.5, 1.5)),
                      coherence=coherence, covered=float(np.mean(fg[m])),
-                     profile=np.log10(np.maximum(prof / top, 1e-4)),
-                     histogram=hist / max(hist.sum(), 1.0))
+                     profile=_profile(power, n, lam), histogram=_histogram(smooth[m]))
 
 
 def _masked_coherence(f: np.ndarray, m: np.ndarray, sigma: float) -> float:
