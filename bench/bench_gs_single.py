@@ -46,7 +46,6 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -55,6 +54,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bench.timing import cpu_and_wall
 from morphogen.domains.grid import Grid
 from morphogen.domains.stencils import Neighbours, padded
 from morphogen.engine.simulate import simulate
@@ -96,12 +96,6 @@ def runs(prep: Prepared) -> dict[str, Callable[[], np.ndarray]]:
     }
 
 
-def _time(fn: Callable[[], object]) -> tuple[float, float]:
-    c0, t0 = time.process_time(), time.perf_counter()
-    fn()
-    return time.process_time() - c0, time.perf_counter() - t0
-
-
 def worker(state_path: str) -> None:
     """The pinned process: compile, save morphogen's final state, then time the run named on
     each line of stdin, answering ``{"cpu": s, "wall": s}``."""
@@ -111,7 +105,7 @@ def worker(state_path: str) -> None:
     np.save(state_path, finals["morphogen"])
     print(json.dumps({"cpus_allowed": len(os.sched_getaffinity(0))}), flush=True)
     for line in sys.stdin:
-        cpu, wall = _time(kinds[line.strip()])
+        cpu, wall = cpu_and_wall(kinds[line.strip()])
         print(json.dumps({"cpu": cpu, "wall": wall}), flush=True)
 
 
@@ -178,7 +172,7 @@ def measure() -> dict:
             load_before = os.getloadavg()
             for _ in range(ROUNDS):
                 for name, pin in rows:
-                    c, w = pinned.time(name) if pin else _time(kinds[name])
+                    c, w = pinned.time(name) if pin else cpu_and_wall(kinds[name])
                     cpu[label[name, pin]].append(round(c, 4))
                     wall[label[name, pin]].append(round(w, 4))
             load_after = os.getloadavg()

@@ -32,8 +32,14 @@ def interleaved_cpu(runs: Mapping[str, Callable[[], Any]], rounds: int
     wall: dict[str, list[float]] = {name: [] for name in runs}
     for _ in range(rounds):
         for name, run in runs.items():
-            c0, t0 = time.process_time(), time.perf_counter()
-            run()
-            cpu[name].append(time.process_time() - c0)
-            wall[name].append(time.perf_counter() - t0)
+            c, w = cpu_and_wall(run)
+            cpu[name].append(c)
+            wall[name].append(w)
     return cpu, wall
+
+
+def cpu_and_wall(run: Callable[[], Any]) -> tuple[float, float]:
+    """The CPU seconds of this process (every thread) and the wall seconds of one call."""
+    c0, t0 = time.process_time(), time.perf_counter()
+    run()
+    return time.process_time() - c0, time.perf_counter() - t0
