@@ -456,7 +456,9 @@ def test_atlas_cancel_stops_the_computation_between_chunks(client):
     job = client.post("/api/atlas", json=body).json()["job"]
     running = poll_job(client, job, lambda s: s["progress"] > 0 or s["status"] != "running"
                     and s["status"] != "queued")
-    assert running["status"] == "running" and 0 < running["progress"] < 0.01
+    # a share strictly inside (0, 1): how far the job got before the first 50 ms poll saw it
+    # depends on the machine's speed (16 tiles of 32² run 250 steps in about 13 ms)
+    assert running["status"] == "running" and 0 < running["progress"] < 0.5
     assert running["eta_s"] is not None and running["eta_s"] > 0
     assert "step" in running["message"]
     client.delete(f"/api/jobs/{job}")
