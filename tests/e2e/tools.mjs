@@ -204,6 +204,9 @@ export async function resumeAndDelete(page, base, run) {
   page.once('dialog', (d) => { dialog = d.message(); d.accept(); });
   await page.click('#runs-delete');
   await page.waitForSelector('#runs-deleted');
+  // the notice comes before the list's refresh: wait for the refreshed list (without the row)
+  await page.waitForFunction((id) => !document.querySelector(`tr[data-run="${id}"]`), run,
+    { timeout: 60000 });
   const listed = await x(page, () => [...document.querySelectorAll('tr[data-run]')].map((tr) => tr.dataset.run));
   return { resumedGen, dialog, listedAfterDelete: listed };
 }
