@@ -58,7 +58,8 @@ from morphogen.engine.initial import make_initial
 from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError
 from morphogen.flowers.case_studies import find_flowers
-from morphogen.flowers.pipeline import build_mesh, evaluate, load_pipeline, run_pipeline
+from morphogen.flowers.pipeline import build_mesh, load_pipeline, run_pipeline
+from morphogen.flowers.stages import evaluate
 from morphogen.models.registry import load_model
 from morphogen.solvers.auto import choose_scheme
 from morphogen.solvers.imex_cg import CG_MAXITER, CG_RTOL

@@ -33,7 +33,8 @@ from morphogen.domains.ply import apply_fields
 from morphogen.engine.initial import make_initial
 from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError
-from morphogen.flowers.pipeline import evaluate, load_pipeline, run_pipeline
+from morphogen.flowers.pipeline import load_pipeline, run_pipeline
+from morphogen.flowers.stages import evaluate
 from morphogen.models.registry import load_model
 from morphogen.solvers.auto import choose_scheme, stiffness_ratio
 from morphogen.solvers.imex_cg import CG_MAXITER, CG_RTOL

@@ -177,7 +177,7 @@ def run_make(args: argparse.Namespace) -> int:
 
 def run_render(args: argparse.Namespace) -> int:
     from morphogen.domains.ply import load_mesh, save_ply
-    from morphogen.flowers.pipeline import evaluate
+    from morphogen.flowers.stages import evaluate
     from morphogen.render.colour import check_cmap, colourise
     from morphogen.render.images import write_png
     from morphogen.render.mesh import parse_view, render_mesh
@@ -218,7 +218,7 @@ def run_info(args: argparse.Namespace) -> int:
 
 def run_veins(args: argparse.Namespace) -> int:
     from morphogen.domains.ply import load_mesh, save_ply
-    from morphogen.flowers.pipeline import grow_veins
+    from morphogen.flowers.stages import grow_veins
     from morphogen.flowers.veins import vein_statistics
     from morphogen.flowers.veins_closed import areoles
     from morphogen.render.colour import colourise
