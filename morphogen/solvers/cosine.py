@@ -13,6 +13,10 @@ mode ``m`` is twice the real part, mode ``n - m`` minus twice the imaginary part
 same coefficients from an FFT of the field mirrored along every axis cost a transform of
 ``2^d`` times the data with the products on ``2^d`` times the modes: the live view's no-flux
 IMEX and ETDRK4 frames took 1.6-4.8 times as long (Gray-Scott on 256² and 512², docs/web.md).
+``jax.scipy.fft.dctn`` gives the same coefficients (to float32 rounding) by Makhoul's 1D form
+along each axis, each a complex FFT of the full length: a transform, multiplier and inverse of
+two species took 2.7-3.5 times the CPU time of this module's on 64²-512² grids
+(``bench/bench_cosine.py``, ``bench/results/cosine.json``), so the 2D form is kept.
 
 :func:`idct` is the exact inverse of :func:`dct` (a mode multiplier between them acts on the
 cosine coefficients, whatever their scale).
