@@ -118,21 +118,32 @@ def finished(root: Path, number: int) -> list[Path]:
 
 
 def fitness_figure(root: Path, number: int) -> None:
-    """Best fitness per generation, one curve per run (the seed's figs. 3 and 5)."""
-    fig = Figure(figsize=(5.6, 3.6), dpi=120)
-    ax = fig.add_subplot()
-    for folder in finished(root, number):
+    """Best fitness per generation, one curve per run (the seed's figs. 3 and 5), and beside it
+    the number of valid individuals per generation (fitness -1 marks an invalid one). Each run
+    has its own marker, drawn hollow, so runs with the same curve stay visible."""
+    fig = Figure(figsize=(8.4, 3.6), dpi=120)
+    best, valid = fig.subplots(1, 2, width_ratios=(1.4, 1))
+    markers = "os^DvP"
+    for i, folder in enumerate(finished(root, number)):
         history = load_state(folder / "state.npz")[1]
         gens = np.arange(1, len(history) + 1)
-        ax.plot(gens, history.max(axis=1), "o-", ms=3, label=folder.name.split("-")[1])
-    ax.axhline(EVAL.size ** 2, color="0.6", ls=":", lw=1)
-    ax.set_xlabel("generation")
-    ax.set_ylabel(f"best fitness (max {EVAL.size ** 2})")
+        style = dict(marker=markers[i % len(markers)], ms=7 - 1.5 * (i % 3), mfc="none",
+                     markevery=(i, 3), lw=1, label=folder.name.split("-")[1])
+        best.plot(gens, history.max(axis=1), **style)
+        valid.plot(gens, (history >= 0).sum(axis=1), **style)
+    best.axhline(EVAL.size ** 2, color="0.6", ls=":", lw=1)
+    best.set_xlabel("generation")
+    best.set_ylabel(f"best fitness (max {EVAL.size ** 2})")
     what = "rates of the Table-2 network" if number == 1 else "networks, n = 3, m ≤ 12"
-    ax.set_title(f"Experiment {number}: {what}", fontsize=10)
-    ax.set_ylim(-20, EVAL.size ** 2 * 1.05)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=3, loc="upper left")
+    best.set_title(f"Experiment {number}: {what}", fontsize=10)
+    best.set_ylim(-20, EVAL.size ** 2 * 1.05)
+    best.legend(fontsize=7, ncol=3, loc="upper left")
+    valid.set_xlabel("generation")
+    valid.set_ylabel("count")
+    valid.set_title(f"valid individuals of {BUDGET['population']}", fontsize=10)
+    valid.set_ylim(0, BUDGET["population"] * 1.05)
+    for ax in (best, valid):
+        ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(HERE / f"fitness_exp{number}.png")
 

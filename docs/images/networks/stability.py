@@ -355,12 +355,12 @@ def from_fixed_point(pop, res: dict[str, np.ndarray], spec: NetworkSpec, count: 
     return out
 
 
-def generation_zero(number: int, draws: int, batch: int, rescue: int) -> dict:
-    """The runs' own generation 0 (seeds 1, 2) and ``draws`` fresh ones, in batches; up to
+def generation_zero(number: int, seeds: list[int], draws: int, batch: int, rescue: int) -> dict:
+    """The runs' own generation 0 (``seeds``) and ``draws`` fresh ones, in batches; up to
     ``rescue`` of the fresh Turing draws evaluated from ``u*`` (:func:`from_fixed_point`)."""
     spec, template, ops = experiment(number)
     own = {}
-    for seed in (1, 2):
+    for seed in seeds:
         key = jax.random.fold_in(jax.random.key(seed), 0)
         own[f"seed{seed}"] = summary(analyse(
             random_population(key, template, spec, 150, ops), spec))
@@ -377,6 +377,11 @@ def generation_zero(number: int, draws: int, batch: int, rescue: int) -> dict:
             "from_fixed_point": from_fixed_point(pop, res, spec, rescue)}
 
 
+def run_seeds(root: Path, number: int) -> list[int]:
+    """The seeds of experiment ``number``'s run folders ``exp{number}-seed{seed}`` in ``root``."""
+    return sorted(int(f.name.split("-seed")[1]) for f in root.glob(f"exp{number}-seed*"))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("runs_dir", nargs="?", type=Path, default=Path("/work/netruns"))
@@ -388,7 +393,8 @@ def main() -> None:
     report = {"settings": {"newton": NEWTON, "residual": RESIDUAL, "tol": TOL,
                            "t_end": T_END, "size": EVAL.size, "classes": CLASSES},
               "draws": args.draws, "table2": table2(), "final": final_populations(args.runs_dir),
-              "generation0": {f"exp{n}": generation_zero(n, args.draws, args.batch, args.rescue)
+              "generation0": {f"exp{n}": generation_zero(n, run_seeds(args.runs_dir, n),
+                                                         args.draws, args.batch, args.rescue)
                               for n in (1, 2)}}
     report["cpu_seconds"] = time.process_time() - clock
     (HERE / "stability.json").write_text(json.dumps(report, indent=1) + "\n")
