@@ -86,10 +86,11 @@ export async function refusals(page, base, out) {
   await choose(page, '#ex-steps', '8');
   await choose(page, '#ex-cmap', 'magma');
   await page.selectOption('#ex-range-mode', 'fixed');
+  await page.waitForFunction(() => Array.isArray(window.morphogenExplore.state.range));
   await page.fill('#ex-range-lo', '0');
   await page.fill('#ex-range-hi', '1');
   await page.press('#ex-range-hi', 'Enter');
-  await page.waitForFunction(() => Array.isArray(window.morphogenExplore.state.range));
+  await page.waitForFunction(() => String(window.morphogenExplore.state.range) === '0,1');
   const dtMax = await x(page, () => window.morphogenExplore.state.dt_max);
   const handDt = Number((dtMax * 0.4).toPrecision(3));
   await page.fill('#ex-dt-num', String(handDt));

@@ -30,6 +30,7 @@ export class Explore {
     this.pending = {}; // parameter changes not yet sent
     this.pendingExtra = {}; // dt not yet sent
     this.sending = false;
+    this.ordered = Promise.resolve(); // the session's changes, one after another (inOrder)
     this.visible = true;
     this.lastQuery = null; // the address's query this page last wrote or loaded
     this.tools = new ExploreTools(this);
@@ -157,6 +158,7 @@ export class Explore {
     } catch (err) {
       if (err.body?.gone) { this.sid = null; return this.loadNow(settings); }
       showError(this.$('ex-error'), err.message);
+      showError(this.$('ex-notice'), ''); // no frame estimate for a start that was refused
       this.tools.markLine(settings.model?.equations ? err.message : '');
       await this.resync(Boolean(settings.model?.equations));
     }
@@ -293,6 +295,14 @@ export class Explore {
     if (!this.paramTimer) this.paramTimer = setTimeout(() => this.sendParams(), 40);
   }
 
+  // The session's changes (view, parameters, a new grid) go one after another, so each answer
+  // is the state after all earlier ones (overlapping requests could be answered out of order).
+  inOrder(task) {
+    const run = this.ordered.then(task, task);
+    this.ordered = run.catch(() => {});
+    return run;
+  }
+
   // one request at a time, so the server ends with the last value the slider showed
   async sendParams(extra = {}) {
     this.paramTimer = null;
@@ -307,7 +317,8 @@ export class Explore {
     this.pendingExtra = {};
     this.sending = true;
     try {
-      const res = await api(`/api/live/${this.sid}/params`, { method: 'POST', body: { params, ...more } });
+      const res = await this.inOrder(() => api(`/api/live/${this.sid}/params`,
+        { method: 'POST', body: { params, ...more } }));
       this.state = { ...this.state, ...res };
       this.setDt(res.dt, res.dt_max);
       showError(this.$('ex-notice'), res.notices.join('\n'));
@@ -384,7 +395,7 @@ export class Explore {
   // species, colour map, steps per frame or colour range: no restart
   async setView(body) {
     try {
-      const res = await api(`/api/live/${this.sid}/view`, { method: 'POST', body });
+      const res = await this.inOrder(() => api(`/api/live/${this.sid}/view`, { method: 'POST', body }));
       this.state = res;
       this.writeUrl(); // with the state, in the same turn
       this.lut = await colourTable(res.cmap);
@@ -415,8 +426,14 @@ export class Explore {
 
   // a new grid, boundary or scheme: the view (species, steps per frame, colours, a fixed range)
   // and a hand-set dt stay; a new scheme runs at its own stable step. A set-up whose frames
-  // would take longer than the server allows is refused here, before it starts.
+  // would take longer than the server allows is refused here, before it starts; after the
+  // changes sent before it are answered.
   restart() {
+    this.loading = (this.loading || 0) + 1; // what the end-to-end tests wait on
+    return this.inOrder(() => this.restartNow()).finally(() => { this.loading -= 1; });
+  }
+
+  restartNow() {
     const height = this.$('ex-height').value;
     const scheme = this.$('ex-scheme').value;
     const size = Number(this.$('ex-size').value);
