@@ -35,8 +35,9 @@ lint: $(STAMP)
 
 # Three workers on the two cores, a file each; each worker's XLA runs on one thread. Many tests
 # wait part of the time (on a browser, a server's job, Ray's workers, a subprocess), and a third
-# worker fills those waits: the whole suite took 549 s with three against 625 s with two on the
-# same 2-core machine (1.80 cores busy on average with three). Most of the suite's time is compiling small programs, so
+# worker fills those waits (1.80 cores busy on average with three). On the 2-core development
+# machine the whole suite took 549 s and, from a clean clone, 638 s with three; 625 s with two
+# on a quiet hour, 673-757 s with other work beside it. Most of the suite's time is compiling small programs, so
 # LLVM's costliest optimisation passes are skipped and its backend runs at -O1: the programs
 # compute the same (IEEE semantics either way), compiled in about half the time (-O1 takes
 # another 12-14 % of the suite's CPU time off, on compile-heavy and run-heavy files alike).
