@@ -37,10 +37,11 @@ lint: $(STAMP)
 # wait part of the time (on a browser, a server's job, Ray's workers, a subprocess), and a third
 # worker fills those waits (1.80 cores busy on average with three). On the 2-core development
 # machine the whole suite took 549 s and, from a clean clone, 638 s with three; 625 s with two
-# on a quiet hour, 673-757 s with other work beside it. Most of the suite's time is compiling small programs, so
-# LLVM's costliest optimisation passes are skipped and its backend runs at -O1: the programs
-# compute the same (IEEE semantics either way), compiled in about half the time (-O1 takes
-# another 12-14 % of the suite's CPU time off, on compile-heavy and run-heavy files alike).
+# on a quiet hour, 673-757 s with other work beside it. Most of the suite's time is compiling
+# small programs, so LLVM's costliest optimisation passes are skipped and its backend runs at
+# -O1: the programs compute the same (IEEE semantics either way), compiled in about half the
+# time (-O1 takes another 12-14 % of the suite's CPU time off, on compile-heavy and run-heavy
+# files alike).
 XLA_CPU := JAX_PLATFORMS=cpu XLA_FLAGS="--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1 --xla_llvm_disable_expensive_passes=true --xla_backend_optimization_level=1"
 
 test: $(STAMP) lint docs

@@ -94,13 +94,14 @@ export class Explore {
 
   // (Re)start with settings {model, params, preset, init, seed, size, height, dx, boundary,
   // scheme}, then optionally {view: {cmap, species, steps_per_frame, range}, dt} (from a link).
-  async load(settings) {
-    this.loading = (this.loading || 0) + 1; // what the end-to-end tests wait on
-    try {
-      return await this.loadNow(settings);
-    } finally {
-      this.loading -= 1;
-    }
+  load(settings) {
+    return this.whileLoading(() => this.loadNow(settings));
+  }
+
+  // counted in this.loading while it runs: what the end-to-end tests wait on
+  async whileLoading(task) {
+    this.loading = (this.loading || 0) + 1;
+    try { return await task(); } finally { this.loading -= 1; }
   }
 
   async loadNow(settings) {
@@ -295,8 +296,9 @@ export class Explore {
     if (!this.paramTimer) this.paramTimer = setTimeout(() => this.sendParams(), 40);
   }
 
-  // The session's changes (view, parameters, a new grid) go one after another, so each answer
-  // is the state after all earlier ones (overlapping requests could be answered out of order).
+  // The session's changes (view, parameters, parameter maps, a reset, a new grid) go one after
+  // another, so each answer is the state after all earlier ones (overlapping requests could be
+  // answered out of order).
   inOrder(task) {
     const run = this.ordered.then(task, task);
     this.ordered = run.catch(() => {});
@@ -429,8 +431,7 @@ export class Explore {
   // would take longer than the server allows is refused here, before it starts; after the
   // changes sent before it are answered.
   restart() {
-    this.loading = (this.loading || 0) + 1; // what the end-to-end tests wait on
-    return this.inOrder(() => this.restartNow()).finally(() => { this.loading -= 1; });
+    return this.whileLoading(() => this.inOrder(() => this.restartNow()));
   }
 
   restartNow() {
@@ -464,9 +465,9 @@ export class Explore {
 
   async reset() {
     try {
-      const res = await api(`/api/live/${this.sid}/reset`, {
+      const res = await this.inOrder(() => api(`/api/live/${this.sid}/reset`, {
         method: 'POST', body: { init: this.$('ex-init').value, seed: Number(this.$('ex-seed').value) },
-      });
+      }));
       this.state = res;
       this.tools.onState(res);
       this.writeUrl();

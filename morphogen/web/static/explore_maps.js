@@ -66,20 +66,19 @@ export class ParamMaps {
       reader.readAsDataURL(file);
     });
     input.value = '';
-    await this.send(api(`/api/live/${this.x.sid}/map`, {
-      method: 'POST',
-      body: { param: this.$('ex-map-param').value, png, resample: this.$('ex-map-resample').value,
-        lo: Number(this.$('ex-map-lo').value), hi: Number(this.$('ex-map-hi').value) },
-    }));
+    const body = { param: this.$('ex-map-param').value, png, resample: this.$('ex-map-resample').value,
+      lo: Number(this.$('ex-map-lo').value), hi: Number(this.$('ex-map-hi').value) };
+    await this.send(() => api(`/api/live/${this.x.sid}/map`, { method: 'POST', body }));
   }
 
   clear(name) {
-    return this.send(api(`/api/live/${this.x.sid}/map/${encodeURIComponent(name)}`, { method: 'DELETE' }));
+    return this.send(() => api(`/api/live/${this.x.sid}/map/${encodeURIComponent(name)}`, { method: 'DELETE' }));
   }
 
+  // a change to the session, in order with the page's others (Explore.inOrder)
   async send(request) {
     try {
-      const res = await request;
+      const res = await this.x.inOrder(request);
       this.x.state = { ...this.x.state, ...res };
       this.x.setDt(res.dt, res.dt_max);
       showError(this.$('ex-error'), '');
