@@ -23,6 +23,7 @@ _HOMES: dict[str, str] = {
     # models and domains
     "Model": "morphogen.models.model",
     "load_model": "morphogen.models.registry",
+    "parse_model": "morphogen.models.text.equations",
     "Grid": "morphogen.domains.grid",
     "Mesh": "morphogen.domains.mesh",
     "load_mesh": "morphogen.domains.ply",
