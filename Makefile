@@ -6,7 +6,8 @@ LOCK := requirements.lock
 # Installs take the exact versions the suite last passed with; `make upgrade` moves them on.
 CONSTRAINTS ?= -c $(LOCK)
 
-.PHONY: demo test test-fast docs bench bench-peers lint clean serve lock upgrade fuzz flowers
+.PHONY: demo test test-fast docs bench bench-peers lint clean serve lock upgrade fuzz flowers \
+	gpu-check
 
 $(STAMP): pyproject.toml $(LOCK)
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -62,6 +63,11 @@ serve: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m bench.run
+
+# The GPU-relevant checks and benchmarks on whatever JAX backend is present, at most 8 minutes on
+# one GPU, into bench/results/gpu.json (docs/schemes.md); on a CPU at tiny sizes.
+gpu-check: $(STAMP)
+	$(BIN)/python -m bench.gpu_check
 
 # Against Exponax and py-pde: the peers live in their own environment, .venv-bench (the lock
 # plus bench/peers.txt), never in the project's dependencies.
