@@ -37,6 +37,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from morphogen.domains import mesh_builders as builders
 from morphogen.domains import mesh_geometry as geo
 from morphogen.domains.mesh_operators import Operators
 from morphogen.errors import MorphogenError
@@ -191,6 +192,24 @@ class Mesh:
     @cached_property
     def _spectral_radius(self) -> float:
         return self.ops.spectral_radius()
+
+    # --- builders (vertices and faces from morphogen.domains.mesh_builders) -------------------
+
+    @classmethod
+    def plane(cls, width: float = 1.0, height: float = 1.0, *, edge: float = 0.05,
+              **mesh_args: Any) -> Mesh:
+        """A flat ``width x height`` rectangle in right triangles of legs ``edge``."""
+        return cls(*builders.plane(width, height, edge), **{"name": "plane", **mesh_args})
+
+    @classmethod
+    def disc(cls, radius: float = 1.0, *, edge: float = 0.05, **mesh_args: Any) -> Mesh:
+        """A flat disc of ``radius``, quality triangles with edges about ``edge``."""
+        return cls(*builders.disc(radius, edge), **{"name": "disc", **mesh_args})
+
+    @classmethod
+    def sphere(cls, radius: float = 1.0, *, subdivisions: int = 3, **mesh_args: Any) -> Mesh:
+        """An icosphere of ``radius``: the icosahedron split ``subdivisions`` times."""
+        return cls(*builders.sphere(radius, subdivisions), **{"name": "sphere", **mesh_args})
 
     # --- derived meshes -----------------------------------------------------------------------
 
