@@ -37,6 +37,8 @@ _HOMES: dict[str, str] = {
     "simulate_batch": "morphogen.engine.simulate",
     "integrate": "morphogen.engine.simulate",
     "Solution": "morphogen.engine.simulate",
+    "stack_params": "morphogen.engine.batch",
+    "stack_states": "morphogen.engine.batch",
     # a run as data (run.json)
     "RunConfig": "morphogen.runs.config",
     "load_run_file": "morphogen.runs.config",
