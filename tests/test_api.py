@@ -7,6 +7,7 @@ from __future__ import annotations
 import ast
 import importlib
 import importlib.util
+import pkgutil
 import subprocess
 import sys
 from pathlib import Path
@@ -63,3 +64,21 @@ def test_the_api_reference_check_catches_a_broken_docstring_reference():
     assert not api.resolves("morphogen.engine.simulate.no_such_function", module, None, {})
     assert not api.resolves("no_such_name", module, None, {})
     assert not api.resolves("morphogen.no_such_module.name", module, None, {})
+
+
+LIBRARY_PACKAGES = ("domains", "engine", "flowers", "learn", "match", "models", "patterns",
+                    "render", "runs", "search", "solvers")
+
+
+@pytest.mark.parametrize("name", LIBRARY_PACKAGES)
+def test_each_library_package_lists_its_public_names(name):
+    """``__all__`` resolves to the name's home, and no public name is also a submodule's name
+    (importing the submodule would replace the function by the module on the package)."""
+    package = importlib.import_module(f"morphogen.{name}")
+    assert package.__all__ and dir(package) == sorted(package.__all__)
+    submodules = {m.name for m in pkgutil.iter_modules(package.__path__)}
+    assert sorted(set(package.__all__) & submodules) == []
+    for public in package.__all__:
+        assert getattr(package, public) is not None, public
+    with pytest.raises(AttributeError, match="has no attribute 'nothing_here'"):
+        package.nothing_here  # noqa: B018

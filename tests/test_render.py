@@ -18,7 +18,6 @@ from morphogen.render import (
     colourise,
     format_ticks,
     mid_slice,
-    mosaic,
     parse_cmap,
     parse_colour,
     slice_montage,
@@ -32,6 +31,7 @@ from morphogen.render import (
     write_mp4,
     write_png,
 )
+from morphogen.render.mosaic import mosaic
 
 MAGENTA = (255, 0, 255)
 

@@ -72,7 +72,8 @@ def write_sheet(
 ) -> str:
     """The contact sheet of a generation: tiles labelled ``#i f=0.512`` (index only when
     ``fitness`` is ``None``, before a person has chosen). Returns its relative path."""
-    from morphogen.render import mosaic, write_png
+    from morphogen.render import write_png
+    from morphogen.render.mosaic import mosaic
 
     small = _shrink(rgb, SHEET_TILE)
     if fitness is None:
