@@ -8,8 +8,13 @@ import pytest
 from morphogen.domains.grid import Grid
 from morphogen.engine.simulate import integrate
 from morphogen.models.network import yamamoto_activator_inhibitor
-from morphogen.search.networks.cluster import cluster_head_fitness
-from morphogen.search.networks.evolve import Evaluation, evaluate, initial_state, run
+from morphogen.search.networks.evolve import (
+    Evaluation,
+    evaluate,
+    initial_state,
+    network_fitness,
+    run,
+)
 from morphogen.search.networks.genome import stack, table2_genome, table2_spec
 from morphogen.search.networks.operators import Operators
 from morphogen.solvers.step import make_step
@@ -28,7 +33,7 @@ def test_evaluation_matches_fixed_structure_model():
     model = yamamoto_activator_inhibitor()
     step = make_step(model, Grid((12, 12)))
     p = {k: jnp.asarray(v, jnp.float32) for k, v in model.parameters().items()}
-    score = cluster_head_fitness()
+    score = network_fitness(EV)
     u, total = u0, 0.0
     for steps in (40, 20):
         u, _, _ = integrate(step, u, p, steps=steps, dt=0.5, key=jax.random.key(0))

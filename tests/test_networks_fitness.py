@@ -110,7 +110,8 @@ def test_a_network_whose_well_mixed_state_blows_up_starts_invalid():
     fitness, states = evaluate(stack([g, bad]), initial_state(jax.random.key(2), spec, ev),
                                spec, ev)
     assert fitness[1] == -1.0 and (states[1] == 0).all()
-    assert fitness[0] == 64 * 0.25  # valid, the ±10 % noise not yet spots: every cell dead
+    # valid, the ±10 % noise not yet spots: every cell dead (64 / 4), graded below that
+    assert 0.0 < fitness[0] < 64 * 0.25
 
 
 @pytest.mark.slow

@@ -27,7 +27,7 @@ from morphogen.patterns.classify import classify
 from morphogen.patterns.descriptors import NAMES, describe_batch
 from morphogen.patterns.watch import simulate_watched
 from morphogen.solvers.auto import population_scheme
-from morphogen.solvers.stability import GRID_SCALE_RATIO, grid_scale, observed_scale
+from morphogen.solvers.stability import grid_scale, grid_scale_dominated, observed_scale
 from morphogen.solvers.step import batch_params, check_stability
 from morphogen.util.io import write_atomic
 
@@ -172,7 +172,7 @@ def checkerboard_members(state: np.ndarray, u0: np.ndarray, model: Model,
         return np.zeros(len(state), bool)
     g, dev = (np.asarray(a, np.float64) for a in grid_scale(np.nan_to_num(state), True))
     scale = observed_scale(u0, model, params, True)
-    return ((g > GRID_SCALE_RATIO * dev) & (g > 1e-4 * scale)).any(axis=1)
+    return grid_scale_dominated(g, dev, scale).any(axis=1)
 
 
 def instability_report(atlas: Atlas, shown: int = 6) -> str | None:

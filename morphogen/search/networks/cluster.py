@@ -33,9 +33,11 @@ at most the number of cells (1024 on 32²).
 :func:`cluster_head_fitness` stages it (§3.3): a state with any invalid value scores
 :data:`~morphogen.search.fitness.INVALID`, a homogeneous one
 :data:`~morphogen.search.fitness.FLAT`, any other ``Σ Φ`` (``> 0``, since every valid cell
-scores at least 0.25), so invalid < flat < patterned. Neighbourhoods are static offset lists
-(a convolution of the peak mask with a disc), ``O(d_max² · cells)`` per state, no pairwise
-distance matrix.
+scores at least 0.25), so invalid < flat < patterned; the network evaluation also makes
+grid-scale checkerboards invalid, tests homogeneity on the activator and grades the
+non-homogeneous states without a peak (``stage2``, :func:`pattern_grade`).
+Neighbourhoods are static offset lists (a convolution of the peak mask with a disc),
+``O(d_max² · cells)`` per state, no pairwise distance matrix.
 """
 
 from __future__ import annotations
@@ -48,7 +50,9 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from morphogen.search.fitness import staged
+from morphogen.errors import MorphogenError
+from morphogen.search.fitness import FLAT, INVALID, is_flat
+from morphogen.solvers.stability import grid_scale, grid_scale_dominated
 
 Array = Any
 
@@ -57,6 +61,11 @@ A_PEAK = 3.0
 PROMINENCE = 0.5
 D_MAX = 6.0
 PHI_DEAD, PHI_PEAK_CROWDED, PHI_PEAK_ALONE, PHI_ALIVE = 0.25, 0.5, 0.75, 1.0
+STAGE2 = ("graded", "activator", "literal")
+"""Readings of stage two, "presence of any non-homogeneous pattern"
+(:func:`cluster_head_fitness`)."""
+GRADE_FLOOR = 1e-3
+"""Smallest :func:`pattern_grade`, so a non-homogeneous state always ranks above a flat one."""
 
 
 def _offsets(radius: float, *, strict: bool, centre: bool) -> list[tuple[int, int]]:
@@ -140,27 +149,75 @@ def cluster_head_score(u: Array, **options: float) -> Array:
     return jnp.sum(cell_fitness(u, **options))
 
 
+def pattern_grade(a: Array, *, a_peak: float = A_PEAK, prominence: float = PROMINENCE,
+                  floor: float = GRADE_FLOOR) -> Array:
+    """How close the activator ``a`` ``(H, W)`` of a non-homogeneous state without a peak is to
+    forming one, in ``[floor, 1]``: the height of its highest cell against the threshold times
+    (``prominence > 0``) its standing above the field's mean against the prominence a peak needs,
+
+    .. math:: g = \\max\\Big(\\text{floor},\\; \\min\\big(1, \\tfrac{\\max a}{a_{peak}}\\big)
+              \\cdot \\min\\big(1, \\tfrac{\\max a - \\bar a}{p \\max a}\\big)\\Big).
+
+    Both factors reach 1 only where a cell clears both tests of :func:`peaks` (with the global
+    mean for the disc's), so a growing pattern climbs towards the first peak: ``±10 %`` noise on
+    ``a = 1`` grades about 0.06, the same noise on ``a = 5`` about 0.18. Only the ordering of
+    Yamamoto §3.3's stage two ("presence of any non-homogeneous pattern") is the seed's; the
+    grade is ours (docs/networks.md)."""
+    top = jnp.max(a)
+    g = jnp.clip(top / a_peak, 0.0, 1.0)
+    if prominence > 0:
+        rise = (top - jnp.mean(a)) / jnp.where(top > 0, prominence * top, 1.0)
+        g = g * jnp.clip(rise, 0.0, 1.0)
+    return jnp.maximum(g, floor)
+
+
 def cluster_head_fitness(*, species: int = 0, a_peak: float = A_PEAK, d_max: float = D_MAX,
                          s_max: float = S_MAX, prominence: float = PROMINENCE,
                          nonnegative: bool = False, normalise: bool = False,
-                         flat_tol: float = 1e-3) -> Callable[[Array], Array]:
-    """Staged cluster-head fitness of a population ``(P, S, H, W) -> (P,)``.
+                         flat_tol: float = 1e-3, stage2: str = "literal",
+                         checkerboards_invalid: bool = False) -> Callable[[Array], Array]:
+    """Staged cluster-head fitness of a population ``(P, S, H, W) -> (P,)`` (Yamamoto §3.3).
 
-    A state is invalid when any value is non-finite, beyond ``s_max`` or (``nonnegative``, the
-    setting of the network evaluation) negative. ``normalise`` divides
-    ``Σ Φ`` by the number of cells, giving a score in ``(0, 1]`` like the other fitnesses of
-    :mod:`morphogen.search.fitness` (used when it serves an ordinary parameter search).
+    Stage one: a state is invalid (:data:`~morphogen.search.fitness.INVALID`) when any value is
+    non-finite, beyond ``s_max`` or (``nonnegative``, the setting of the network evaluation)
+    negative, and with ``checkerboards_invalid`` when some species is dominated by the
+    grid-scale mode (the atlas's test,
+    :func:`morphogen.solvers.stability.grid_scale_dominated`: a numerical artefact of the
+    step, not a pattern). Stage two, ``stage2`` (:data:`STAGE2`):
+
+    - ``"literal"``: homogeneous (:data:`~morphogen.search.fitness.FLAT`) when every species is
+      flat (:func:`~morphogen.search.fitness.is_flat`), else ``Σ Φ``;
+    - ``"activator"``: homogeneous when the scored species is flat, else ``Σ Φ``;
+    - ``"graded"``: as ``"activator"``, and a state without a peak (``Σ Φ = N/4``, every cell
+      dead) scores ``N/4 · g`` with ``g`` its :func:`pattern_grade`, so invalid < homogeneous
+      < graded non-homogeneous (``<= N/4``) < any state with a peak (``> N/4``: a peak cell
+      scores at least 0.5).
+
+    ``normalise`` divides the score by the number of cells ``N``, giving a score in ``(0, 1]``
+    like the other fitnesses of :mod:`morphogen.search.fitness` (used when it serves an
+    ordinary parameter search). States are scored by ``lax.map``, so a score does not depend on
+    how a population is batched.
     """
+    if stage2 not in STAGE2:
+        raise MorphogenError(f"unknown stage-2 test {stage2!r}; use one of {', '.join(STAGE2)}")
 
-    def score(u: Array) -> Array:
-        total = cluster_head_score(u, species=species, a_peak=a_peak, d_max=d_max, s_max=s_max,
-                                   prominence=prominence, nonnegative=nonnegative)
-        return total / (u.shape[1] * u.shape[2]) if normalise else total
+    def one(u: Array) -> Array:
+        ok = jnp.all(valid_cells(u, s_max, nonnegative))
+        safe = jnp.where(ok, u, 0.0)
+        cells = u.shape[1] * u.shape[2]
+        total = cluster_head_score(safe, species=species, a_peak=a_peak, d_max=d_max,
+                                   s_max=s_max, prominence=prominence, nonnegative=nonnegative)
+        a = safe[species]
+        if stage2 == "graded":
+            total = jnp.where(total > PHI_DEAD * cells, total,
+                              PHI_DEAD * cells * pattern_grade(a, a_peak=a_peak,
+                                                               prominence=prominence))
+        flat = is_flat(safe if stage2 == "literal" else a[None], flat_tol)
+        value = jnp.where(flat, FLAT, total / cells if normalise else total)
+        if checkerboards_invalid:
+            g, dev = grid_scale(safe, False)
+            scale = jnp.maximum(1.0, jnp.mean(jnp.abs(safe), axis=(1, 2)))
+            ok = ok & ~jnp.any(grid_scale_dominated(g[0], dev[0], scale))
+        return jnp.where(ok, value, INVALID)
 
-    inner = staged(score, flat_tol)
-
-    def fitness(states: Array) -> Array:
-        ok = jax.vmap(lambda u: jnp.all(valid_cells(u, s_max, nonnegative)))(states)
-        return jnp.where(ok, inner(states), -1.0)
-
-    return jax.jit(fitness)
+    return jax.jit(lambda states: jax.lax.map(one, states))

@@ -53,7 +53,7 @@ import numpy as np
 
 from morphogen.errors import MorphogenError
 from morphogen.search.fitness import INVALID
-from morphogen.search.networks.cluster import S_MAX, cluster_head_fitness
+from morphogen.search.networks.cluster import S_MAX, STAGE2, cluster_head_fitness
 from morphogen.search.networks.genome import Genome, NetworkSpec
 from morphogen.search.networks.lanes import advance_population
 from morphogen.search.networks.operators import Operators, next_generation, random_population
@@ -62,8 +62,11 @@ from morphogen.search.networks.reaction import genome_params, padded_reaction
 Array = Any
 INIT_KINDS = ("steady", "uniform")
 """Initial conditions of the evaluation (module docstring)."""
-LEGACY_EV = {"init": "uniform", "init_noise": 0.1, "init_relax": 5000.0}
-"""Settings of a run saved before :attr:`Evaluation.init` existed (uniform starts)."""
+LEGACY_EV = {"init": "uniform", "init_noise": 0.1, "init_relax": 5000.0, "stage2": "literal",
+             "reject_checkerboards": False}
+"""Settings of a run saved before an option existed: uniform starts (before
+:attr:`Evaluation.init`), the literal stage two and checkerboards scored (before
+:attr:`Evaluation.stage2` and :attr:`Evaluation.reject_checkerboards`)."""
 CHECKS = 10
 """Bounds checks on the way to the first scoring round (0: none, every individual runs to it)."""
 MIN_BATCH = 8
@@ -72,7 +75,16 @@ MIN_BATCH = 8
 
 @dataclass(frozen=True)
 class Evaluation:
-    """Phenotype and evaluation settings (Table 1 defaults)."""
+    """Phenotype and evaluation settings (Table 1 defaults).
+
+    ``init`` picks the initial condition (module docstring). ``stage2`` reads §3.3's second
+    stage, "presence of any non-homogeneous pattern" (:data:`~.cluster.STAGE2`): ``"graded"``
+    (default) tests homogeneity on the activator and ranks a non-homogeneous state without a
+    peak by how close it is to one (:func:`~.cluster.pattern_grade`), ``"activator"`` only
+    tests the activator, ``"literal"`` every species (the seed's words; a non-diffusing
+    species keeps its start noise, so every valid genome passed). ``reject_checkerboards``
+    makes a grid-scale checkerboard (a numerical artefact of the step) invalid.
+    """
 
     size: int = 32
     dt: float = 0.1
@@ -84,6 +96,8 @@ class Evaluation:
     init: str = "steady"
     init_noise: float = 0.1
     init_relax: float = 5000.0
+    stage2: str = "graded"
+    reject_checkerboards: bool = True
 
     def __post_init__(self) -> None:
         if self.size < 3 or self.rounds < 1 or not self.dt > 0:
@@ -95,6 +109,9 @@ class Evaluation:
             raise MorphogenError("need 0 <= init_noise < 1, init_relax >= 0, init_high > 0")
         if self.t_start < 0 or self.interval <= 0:
             raise MorphogenError("need t_start >= 0 and interval > 0")
+        if self.stage2 not in STAGE2:
+            raise MorphogenError(f"unknown stage-2 test {self.stage2!r}; use one of "
+                                 f"{', '.join(STAGE2)}")
 
     @property
     def start_steps(self) -> int:
@@ -122,8 +139,16 @@ def _breeder(spec: NetworkSpec, ops: Operators) -> Callable:
 
 
 @lru_cache(maxsize=16)
-def _score(activator: int) -> Callable:
-    return jax.jit(cluster_head_fitness(species=activator, nonnegative=True))
+def _score(activator: int, stage2: str, reject_checkerboards: bool) -> Callable:
+    return cluster_head_fitness(species=activator, nonnegative=True, stage2=stage2,
+                                checkerboards_invalid=reject_checkerboards)
+
+
+def network_fitness(ev: Evaluation) -> Callable[[Array], Array]:
+    """The evaluation's staged cluster-head fitness of states ``(P, n, H, W) -> (P,)``: the
+    activator scored, negative concentrations invalid, and :attr:`Evaluation.stage2` and
+    :attr:`Evaluation.reject_checkerboards` as set (:func:`cluster_head_fitness`)."""
+    return _score(ev.activator, ev.stage2, ev.reject_checkerboards)
 
 
 def within_bounds(u: Array) -> Array:
@@ -183,7 +208,7 @@ def evaluate(pop: Genome, u0: Array, spec: NetworkSpec, ev: Evaluation,
     ok = within_bounds(u)
     u = jnp.where(ok[:, None, None, None], u, 0.0)
     total = jnp.zeros(size, jnp.float32)
-    score = _score(ev.activator)
+    score = network_fitness(ev)
     for steps, scored in _plan(ev, checks):
         alive = np.flatnonzero(np.asarray(ok))
         if steps and alive.size:
