@@ -10,6 +10,7 @@ from morphogen.search.networks.genome import (
     Genome,
     NetworkSpec,
     make_genome,
+    rates,
     satisfied,
     table2_genome,
     table2_spec,
@@ -128,3 +129,28 @@ def test_bad_operator_settings():
         Operators(mode="nets")
     with pytest.raises(MorphogenError, match="p_crossover"):
         Operators(p_crossover=1.5)
+
+
+def test_rates_drawn_within_a_decade_of_table_2():
+    spec = table2_spec()
+    template = table2_genome(spec)
+    key = jax.random.key(4)
+    near = random_population(key, template, spec, 2000, Operators(mode="rates", draw="decade"))
+    wide = random_population(key, template, spec, 2000, Operators(mode="rates"))
+    k_t = np.asarray(rates(template), np.float64)
+    k = np.asarray(rates(near), np.float64)
+    free = ~np.asarray(spec.fixed_mask)
+    fixed = ~free
+    np.testing.assert_array_equal(k[:, fixed], np.broadcast_to(k_t[fixed], k[:, fixed].shape))
+    ratio = np.log10(k[:, free] / k_t[free])
+    # k_t · 10^U(-1, 1), rounded down to two significant digits: within [-1, 1), about half
+    # below the hand-made rate, about a quarter in each outer half-decade
+    assert ratio.min() >= -1.0 - 1e-6 and ratio.max() < 1.0
+    assert abs(float(np.mean(ratio < 0)) - 0.5) < 0.03
+    assert abs(float(np.mean(ratio > 0.5)) - 0.25) < 0.03
+    # the default draw spans nine decades, from 1e-6 to 99 * 10
+    w = np.asarray(rates(wide), np.float64)[:, free]
+    assert w.min() < 1e-5 and w.max() > 100.0
+    assert float(np.mean(np.abs(np.log10(w / k_t[free])) < 1.0)) < 0.3
+    with pytest.raises(MorphogenError, match="rate draw"):
+        Operators(draw="normal")

@@ -98,3 +98,31 @@ def test_stage_two_options_and_legacy_runs():
         Evaluation(stage2="smooth")
     with pytest.raises(MorphogenError, match="stage-2"):
         cluster_head_fitness(stage2="smooth")
+
+
+@pytest.mark.slow
+def test_cli_stage_two_and_draw_options_are_saved_and_resumed(tmp_path):
+    import json
+
+    from morphogen.cli.main import main
+    from morphogen.search.networks import record
+
+    out = tmp_path / "r"
+    args = ["networks", "--out", str(out), "--population", "4", "--size", "8", "--dt", "0.5",
+            "--t-start", "5", "--interval", "5", "--rounds", "1", "--quiet", "--init", "uniform",
+            "--archive", str(tmp_path / "index.sqlite")]
+    assert main(args + ["--generations", "1", "--stage2", "literal", "--checkerboards",
+                        "scored", "--draw", "decade"]) == 0
+    saved = record.saved_settings(out)
+    assert (saved["stage2"], saved["checkerboards"], saved["draw"]) == ("literal", "scored",
+                                                                        "decade")
+    assert main(["networks", "--out", str(out), "--resume", "--generations", "2", "--quiet"]) == 0
+    assert record.saved_settings(out)["draw"] == "decade"
+    # a run recorded before the options existed resumes with its earlier behaviour
+    config = json.loads((out / "config.json").read_text())
+    del config["problem"]["ev"]["stage2"], config["problem"]["ev"]["reject_checkerboards"]
+    del config["strategy"]["draw"]
+    (out / "config.json").write_text(json.dumps(config))
+    saved = record.saved_settings(out)
+    assert (saved["stage2"], saved["checkerboards"], saved["draw"]) == ("literal", "scored",
+                                                                        "log-uniform")

@@ -18,7 +18,8 @@ from morphogen.util.progress import ProgressBar
 
 DEFAULTS = {"mode": "rates", "population": 150, "generations": 100, "seed": 0, "size": 32,
             "dt": 0.1, "t_start": 2000.0, "interval": 200.0, "rounds": 10, "m_max": 12,
-            "tournament": 2, "init": "steady", "init_noise": 0.1}
+            "tournament": 2, "init": "steady", "init_noise": 0.1, "stage2": "graded",
+            "checkerboards": "invalid", "draw": "log-uniform"}
 """Settings of a new run (Table 1); ``--resume`` takes the run's own instead."""
 
 
@@ -56,6 +57,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "from one state uniform in [0, 2)")
     p.add_argument("--init-noise", type=float,
                    help="relative noise of --init steady (default: 0.1, i.e. ±10 %%)")
+    p.add_argument("--stage2", choices=("graded", "activator", "literal"),
+                   help="stage two of the fitness, 'presence of any non-homogeneous pattern': "
+                   "'graded' (default) tests the activator and ranks a state without a peak by "
+                   "how close it is to one, 'activator' only tests the activator, 'literal' "
+                   "every species (the seed's words)")
+    p.add_argument("--checkerboards", choices=("invalid", "scored"),
+                   help="grid-scale checkerboards (a numerical artefact of the step): "
+                   "'invalid' (default) or 'scored' as patterns (the seed's words)")
+    p.add_argument("--draw", choices=("log-uniform", "decade"),
+                   help="initial rates: 'log-uniform' (default) over every exponent, 'decade' "
+                   "within one decade of the template's (Table 2 in --mode rates)")
     p.add_argument("--m-max", type=int, help="reaction slots, network mode (default: 12)")
     p.add_argument("--tournament", type=int, help="default: 2")
     p.add_argument("--archive", help="run archive (default $MORPHOGEN_ARCHIVE or "
@@ -130,9 +142,10 @@ def run(args: argparse.Namespace) -> int:
         spec = NetworkSpec(("A", "B", "C"), args.m_max, (0.005, 0.2, 0.0), fixed=(0, 1),
                            fixed_rates=(0.0, 0.0))
         template = make_genome(spec, [0.0] * spec.m_max)
-    ops = Operators(mode=args.mode, tournament=args.tournament)
+    ops = Operators(mode=args.mode, tournament=args.tournament, draw=args.draw)
     ev = Evaluation(size=args.size, dt=args.dt, t_start=args.t_start, interval=args.interval,
-                    rounds=args.rounds, init=args.init, init_noise=args.init_noise)
+                    rounds=args.rounds, init=args.init, init_noise=args.init_noise,
+                    stage2=args.stage2, reject_checkerboards=args.checkerboards == "invalid")
     check_cost(args, len(spec.species), ev.steps)
     if args.resume:
         run_id, archive = record.resume(out, args.archive, args.generations)

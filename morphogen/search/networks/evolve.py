@@ -67,6 +67,8 @@ LEGACY_EV = {"init": "uniform", "init_noise": 0.1, "init_relax": 5000.0, "stage2
 """Settings of a run saved before an option existed: uniform starts (before
 :attr:`Evaluation.init`), the literal stage two and checkerboards scored (before
 :attr:`Evaluation.stage2` and :attr:`Evaluation.reject_checkerboards`)."""
+LEGACY_OPS = {"draw": "log-uniform"}
+"""Operator settings of a run saved before :attr:`Operators.draw` existed."""
 CHECKS = 10
 """Bounds checks on the way to the first scoring round (0: none, every individual runs to it)."""
 MIN_BATCH = 8
@@ -308,6 +310,7 @@ def run(
             raise MorphogenError(f"nothing to resume in {out}: no state.npz")
         pop, history, done, saved = load_state(path)
         saved["ev"] = {**LEGACY_EV, **saved["ev"]}
+        saved["ops"] = {**LEGACY_OPS, **saved["ops"]}
         if saved != meta:
             raise MorphogenError(f"{out} holds a run with other settings; resume it with "
                                  "those (give only --out, --resume and --generations)")

@@ -42,6 +42,8 @@ from morphogen.search.networks.genome import (
 
 Array = Any
 MODES = ("rates", "network")
+DRAWS = ("log-uniform", "decade")
+"""Initial rate draws of :func:`random_population`."""
 
 
 @dataclass(frozen=True)
@@ -56,6 +58,8 @@ class Operators:
         p_duplicate: probability of gene duplication per mating event (network mode only).
         tournament: tournament size.
         elite: best individuals copied unchanged into the next generation.
+        draw: the initial population's rates (:func:`random_population`): ``"log-uniform"``
+            over every exponent, or ``"decade"`` within one decade of the template's.
     """
 
     mode: str = "network"
@@ -65,10 +69,14 @@ class Operators:
     p_duplicate: float = 0.04
     tournament: int = 2
     elite: int = 1
+    draw: str = "log-uniform"
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise MorphogenError(f"unknown mode {self.mode!r}; use one of {', '.join(MODES)}")
+        if self.draw not in DRAWS:
+            raise MorphogenError(f"unknown rate draw {self.draw!r}; use one of "
+                                 f"{', '.join(DRAWS)}")
         for name in ("p_mutate", "p_mutate_reaction", "p_crossover", "p_duplicate"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise MorphogenError(f"{name} must lie in [0, 1]")
@@ -204,8 +212,18 @@ def random_population(key: Array, template: Genome, spec: NetworkSpec, size: int
                       ops: Operators) -> Genome:
     """An initial population around ``template`` (one genome).
 
-    Rates of every non-imposed slot are drawn uniformly: mantissa in ``[10, 99]``, exponent in
-    ``[exp_min, exp_max]``. In network mode each genome instead gets a single random evolvable
+    Rates of every non-imposed slot are drawn (``ops.draw``):
+
+    - ``"log-uniform"``: mantissa uniform in ``[10, 99]``, exponent uniform in
+      ``[exp_min, exp_max]`` (roughly log-uniform from ``10^exp_min`` to ``990``: nine decades
+      for Table 1's bounds), the literal reading of "0 ≤ k < 1000" (Yamamoto §4.1);
+    - ``"decade"``: ``log10 k`` uniform within one decade of the template's rate,
+      ``k_t · 10^U(-1, 1)``, then written with two significant digits (mantissa
+      ``⌊10^(1 + frac)⌋``), exponent clipped to its bounds; a slot whose template rate is 0
+      draws as ``"log-uniform"``. The reading of §4.1's "find matching rate coefficients"
+      around the hand-made network (rates mode's template is Table 2).
+
+    In network mode each genome instead gets a single random evolvable
     reaction (§4.2) in its first evolvable slot: each side draws 4 molecules among the ``n``
     species or none, entries clipped to 3, so the constraints hold. One compiled program per
     (spec, size, operators): drawn op by op, each random draw compiled apart (seconds).
@@ -215,6 +233,16 @@ def random_population(key: Array, template: Genome, spec: NetworkSpec, size: int
     k_m, k_e, k_ed, k_pr = jax.random.split(key, 4)
     mant = jax.random.randint(k_m, (size, m), 10, MANTISSA_MAX + 1)
     expo = jax.random.randint(k_e, (size, m), spec.exp_min, spec.exp_max + 1)
+    if ops.draw == "decade":
+        kt = template.mantissa.astype(jnp.float32) / 10.0 * jnp.power(
+            10.0, template.exponent.astype(jnp.float32))
+        logk = jnp.log10(jnp.where(kt > 0, kt, 1.0)) + jax.random.uniform(
+            jax.random.fold_in(key, 5), (size, m), jnp.float32, -1.0, 1.0)
+        e = jnp.floor(logk)
+        near_mant = jnp.clip(jnp.floor(jnp.power(10.0, logk - e + 1.0)), 10, MANTISSA_MAX)
+        near = kt > 0
+        mant = jnp.where(near, near_mant.astype(mant.dtype), mant)
+        expo = jnp.where(near, jnp.clip(e, spec.exp_min, spec.exp_max).astype(expo.dtype), expo)
     mant = jnp.where(fixed, template.mantissa, mant).astype(jnp.int32)
     expo = jnp.where(fixed, template.exponent, expo).astype(jnp.int32)
     educts = jnp.broadcast_to(template.educts, (size, n, m))

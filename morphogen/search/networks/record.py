@@ -111,8 +111,9 @@ def _config(out: Path) -> dict[str, Any]:
 def saved_settings(out: Path) -> dict[str, Any]:
     """The command-line settings a run folder was started with (``morphogen networks`` names:
     mode, population, seed, generations, size, dt, t_start, interval, rounds, m_max,
-    tournament, init, init_noise), so ``--resume`` needs no more than ``--out``; a run saved
-    before ``init`` existed started from uniform states."""
+    tournament, init, init_noise, stage2, checkerboards, draw), so ``--resume`` needs no more
+    than ``--out``; a run saved before an option existed gets its earlier behaviour (uniform
+    starts, the literal stage two, checkerboards scored, the log-uniform draw)."""
     config = _config(out)
     try:
         strategy, problem = config["strategy"], config["problem"]
@@ -125,7 +126,10 @@ def saved_settings(out: Path) -> dict[str, Any]:
                 "m_max": int(problem["spec"]["m_max"]),
                 "tournament": int(strategy["tournament"]),
                 "init": str(ev.get("init", "uniform")),
-                "init_noise": float(ev.get("init_noise", 0.1))}
+                "init_noise": float(ev.get("init_noise", 0.1)),
+                "stage2": str(ev.get("stage2", "literal")),
+                "checkerboards": "invalid" if ev.get("reject_checkerboards") else "scored",
+                "draw": str(strategy.get("draw", "log-uniform"))}
     except (KeyError, TypeError, ValueError, AttributeError):
         raise MorphogenError(f"{Path(out) / CONFIG} is damaged; the run cannot be resumed"
                              ) from None
