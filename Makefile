@@ -12,7 +12,7 @@ CONSTRAINTS ?= -c $(LOCK)
 $(STAMP): pyproject.toml $(LOCK)
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet "pip==26.3"
-	$(BIN)/pip install --quiet $(CONSTRAINTS) -e ".[dev,ray,vgg]"
+	$(BIN)/pip install --quiet $(CONSTRAINTS) -e ".[dev,all]"
 	touch $(STAMP)
 
 lock: $(STAMP)

@@ -8,6 +8,7 @@ import os
 import socket
 
 from morphogen.errors import MorphogenError
+from morphogen.util.extras import require
 
 LOCAL = ("127.0.0.1", "localhost", "::1")
 
@@ -39,7 +40,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import uvicorn
+    require("fastapi", "web", "morphogen serve")
+    uvicorn = require("uvicorn", "web", "morphogen serve")
 
     from morphogen.web.app import LOCAL_HOSTS, create_app
 

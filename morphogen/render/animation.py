@@ -16,6 +16,7 @@ import imageio.v3 as iio
 import numpy as np
 
 from morphogen.errors import MorphogenError
+from morphogen.util.extras import require
 from morphogen.util.io import atomic_path, ensure_writable_dir, write_atomic
 
 ANIMATION_FORMATS = (".gif", ".mp4")
@@ -66,14 +67,12 @@ def pad_even(frames: np.ndarray) -> np.ndarray:
 
 
 def _ffmpeg() -> str:
+    imageio_ffmpeg = require("imageio_ffmpeg", "video", "MP4 output (or write a .gif)")
     try:
-        import imageio_ffmpeg
-
         return imageio_ffmpeg.get_ffmpeg_exe()
-    except (ImportError, RuntimeError):
-        raise MorphogenError(
-            "MP4 output needs ffmpeg: pip install imageio-ffmpeg, or write a .gif instead"
-        ) from None
+    except RuntimeError:
+        raise MorphogenError("MP4 output needs ffmpeg, which imageio-ffmpeg could not find; "
+                             "write a .gif instead") from None
 
 
 def write_mp4(

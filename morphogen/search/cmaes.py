@@ -27,11 +27,12 @@ import jax.numpy as jnp
 
 from morphogen.errors import MorphogenError
 from morphogen.search.strategy import Array, State, Strategy
+from morphogen.util.extras import require
 
 
 @lru_cache(maxsize=16)
 def _evosax_cma(population_size: int, num_dims: int) -> Any:
-    from evosax.algorithms import CMA_ES
+    CMA_ES = require("evosax.algorithms", "cmaes", "the CMA-ES strategy").CMA_ES
 
     # Built once and cached, possibly while tracing: keep its constants concrete.
     with jax.ensure_compile_time_eval():
@@ -51,6 +52,7 @@ class CMAES(Strategy):
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        require("evosax", "cmaes", "the CMA-ES strategy")
         if not 0 < self.sigma_init <= 1:
             raise MorphogenError(f"CMA-ES sigma_init must be in (0, 1], got {self.sigma_init}")
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from morphogen.errors import MorphogenError
 from morphogen.render.colour import parse_cmap
+from morphogen.util.extras import require
 
 MAX_FRAMES = 300
 """Frames kept by one recording (about 15 s at 20 frames/s)."""
@@ -94,7 +95,7 @@ def _ffmpeg_mp4(video: np.ndarray, fps: int) -> bytes:
     import tempfile
     from pathlib import Path
 
-    import imageio_ffmpeg
+    imageio_ffmpeg = require("imageio_ffmpeg", "video", "recording a video")
 
     h, w = video.shape[1:3]
     with tempfile.TemporaryDirectory() as tmp:

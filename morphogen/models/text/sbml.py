@@ -32,6 +32,7 @@ import numpy as np
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model
 from morphogen.models.network import ReactionNetwork, to_toml
+from morphogen.util.extras import require
 from morphogen.util.io import read_text
 
 ANTIMONY_SUFFIXES = (".ant", ".antimony")
@@ -70,7 +71,7 @@ def read_antimony(text: str, where: str = "Antimony text") -> ReactionNetwork:
             before libAntimony sees the text, which would read the named file).
     """
     refuse_imports(text, where)
-    import antimony
+    antimony = require("antimony", "networks", "reading and writing Antimony")
 
     antimony.clearPreviousLoads()
     if antimony.loadAntimonyString(text.removeprefix("\ufeff")) < 0:
@@ -131,7 +132,7 @@ def read_sbml(text: str, where: str = "SBML text", name: str = "network") -> Rea
     Raises:
         MorphogenError: one line naming the file and the element at fault.
     """
-    import libsbml
+    libsbml = require("libsbml", "networks", "reading and writing SBML")
 
     doc = libsbml.readSBMLFromString(text.removeprefix("\ufeff"))
     log = doc.getErrorLog()
@@ -230,7 +231,7 @@ class _Reader:
 
     def _mass_action(self, rx, educts: np.ndarray) -> tuple[str, float]:
         """The rate constant of ``rx`` after checking its law is ``k Π s^e``."""
-        import libsbml
+        libsbml = require("libsbml", "networks", "reading and writing SBML")
 
         rid = rx.getId()
         law = rx.getKineticLaw() if rx.isSetKineticLaw() else None
@@ -280,7 +281,7 @@ def _whole(value: float, low: int) -> bool:
 def _factors(root, refuse: MorphogenError) -> list:
     """``[(leaf, exponent)]`` of a product of names, numbers and integer powers of them
     (walked with a stack, so a deeply nested law is refused rather than overflowing Python's)."""
-    import libsbml
+    libsbml = require("libsbml", "networks", "reading and writing SBML")
 
     out, stack = [], [(root, 1)]
     while stack:
@@ -309,7 +310,7 @@ def to_sbml(net: ReactionNetwork) -> str:
     """SBML Level 3 Version 2 of the network: one compartment of size 1, species with initial
     concentrations, rate parameters, the parameters ``D_<species>`` (read back on import), and
     each reaction's mass-action law ``k * Π s^e``."""
-    import libsbml
+    libsbml = require("libsbml", "networks", "reading and writing SBML")
 
     doc = libsbml.SBMLDocument(3, 2)
     model = doc.createModel()
@@ -353,7 +354,7 @@ def to_sbml(net: ReactionNetwork) -> str:
 
 def to_antimony(net: ReactionNetwork) -> str:
     """Antimony text of the network, made by libAntimony from :func:`to_sbml`."""
-    import antimony
+    antimony = require("antimony", "networks", "reading and writing Antimony")
 
     antimony.clearPreviousLoads()
     if antimony.loadSBMLString(to_sbml(net)) < 0:

@@ -20,6 +20,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from morphogen.models.network import ReactionNetwork
+from morphogen.util.extras import require
 
 SPECIES_SIZE = 1400
 REACTION_SIZE = 90
@@ -35,7 +36,7 @@ def reaction_graph(net: ReactionNetwork, reactions: Sequence[int] | None = None)
     selects reaction indices (default all); species are those the selected reactions touch,
     or all species when none is selected.
     """
-    import networkx as nx
+    nx = require("networkx", "networks", "drawing a network")
 
     me, mp = np.asarray(net.educts), np.asarray(net.products)
     chosen = range(len(net.reaction_ids)) if reactions is None else reactions
@@ -63,7 +64,7 @@ def reaction_graph(net: ReactionNetwork, reactions: Sequence[int] | None = None)
 def draw_network(net: ReactionNetwork, fmt: str = "png",
                  reactions: Sequence[int] | None = None, title: str | None = None) -> bytes:
     """PNG or SVG bytes of :func:`reaction_graph` (see the module docstring for the legend)."""
-    import networkx as nx
+    nx = require("networkx", "networks", "drawing a network")
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 
@@ -124,7 +125,7 @@ def _layout(g) -> dict:
     """Kamada-Kawai positions of the undirected graph per connected part, the parts side by
     side (largest first). On the directed graph, or across parts, path lengths are undefined
     for most pairs and the layout can put two nodes on one spot."""
-    import networkx as nx
+    nx = require("networkx", "networks", "drawing a network")
 
     parts = sorted(nx.weakly_connected_components(g), key=lambda c: (-len(c), sorted(map(str, c))))
     pos, x = {}, 0.0
