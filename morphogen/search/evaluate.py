@@ -156,12 +156,15 @@ class Evaluator:
 
     Args:
         batch_size: individuals vmapped together (default: all on a GPU, one on a CPU).
+        model: the model itself, for one built in Python that has no text to load from
+            (default: :func:`load_problem_model`); it must have the problem's ``model`` name.
     """
 
-    def __init__(self, problem: Problem, *, batch_size: int | None = None):
+    def __init__(self, problem: Problem, *, batch_size: int | None = None,
+                 model: Model | None = None):
         self.problem = problem
         self.batch_size = batch_size
-        self.model = load_problem_model(problem)
+        self.model = load_problem_model(problem) if model is None else model
         check_genes(problem.genes, list(self.model.params))
         self.domain = Grid(problem.size, problem.dx, problem.boundary, problem.stencil)
         self.domain.boundaries(self.model.species)
