@@ -4,7 +4,9 @@ Turing region?
     nice -n 5 python docs/images/networks/stability.py [RUNS_DIR] [--draws N] [--batch B]
         [--rescue R]
 
-For each genome (a population at once, ``jax.vmap`` over individuals, float64):
+For each genome (a population at once, ``jax.vmap`` over individuals, float64), with the
+package's analysis (:mod:`morphogen.models.fixed_points`, :mod:`morphogen.models.linear`, the
+code of ``morphogen analyse``):
 
 1. the evaluation's homogeneous start ``s*``
    (:func:`~morphogen.search.networks.evolve.homogeneous_states`: the well-mixed system, explicit
@@ -54,7 +56,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import itertools
 import json
 import os
 import shutil
@@ -73,7 +74,16 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 from make_figures import EVAL, experiment  # noqa: E402
 
-from morphogen.models.model import CENTRE, reaction_jacobian  # noqa: E402
+from morphogen.domains.grid import Grid  # noqa: E402
+from morphogen.models.fixed_points import (  # noqa: E402
+    LOG_NEWTON,
+    NEWTON,
+    POLISH,
+    RESIDUAL,
+    first_found,
+    solver,
+)
+from morphogen.models.linear import CLASSES, TOL, lattice_modes, stability_at  # noqa: E402
 from morphogen.search.networks.cluster import PROMINENCE, S_MAX, peaks  # noqa: E402
 from morphogen.search.networks.evolve import (  # noqa: E402
     evaluate,
@@ -92,13 +102,6 @@ from morphogen.search.networks.operators import random_population  # noqa: E402
 from morphogen.search.networks.reaction import genome_params, padded_model  # noqa: E402
 
 HERE = Path(__file__).parent
-NEWTON = 60
-LOG_NEWTON = 100
-POLISH = 10
-RESIDUAL = 1e-8
-TOL = 1e-14
-TOL_ABS = 1e-9
-CLASSES = ("turing", "stable", "unstable_k0", "marginal", "no_fixed_point")
 DRAWS = 20_000
 BATCH = 2_000
 RESCUE = 8
@@ -108,101 +111,33 @@ T_END = EVAL.t_start + (EVAL.rounds - 1) * EVAL.interval
 def grid_modes(size: int) -> tuple[np.ndarray, np.ndarray]:
     """``κ²`` ``(K,)`` of the modes ``0 <= m <= n <= size/2`` of the periodic 5-point Laplacian
     (``dx = 1``, eigenvalue ``-κ²``) and their lattice wavelengths ``size / |(m, n)|``
-    (``inf`` for ``(0, 0)``, first)."""
-    half = np.arange(size // 2 + 1)
-    m, n = (a.ravel() for a in np.meshgrid(half, half, indexing="ij"))
-    keep = m <= n
-    m, n = m[keep], n[keep]
-    kappa2 = 4 - 2 * np.cos(2 * np.pi * m / size) - 2 * np.cos(2 * np.pi * n / size)
-    with np.errstate(divide="ignore"):
-        wavelength = size / np.hypot(m, n)
-    return kappa2, wavelength
+    (``inf`` for ``(0, 0)``, first): :func:`morphogen.models.linear.lattice_modes`."""
+    grid = Grid((size, size))
+    modes = lattice_modes(grid.shape, grid.symbol)
+    return modes.kappa2, modes.wavelength
 
 
 @lru_cache(maxsize=4)
 def _program(spec: NetworkSpec, size: int):
-    """The vmapped float64 analysis of a population (module docstring, steps 1-4). Non-finite
-    entries are zeroed before every LAPACK call (``lstsq``, ``eigvals``: NaN input made them
-    spin) and such a genome is reported ``no_fixed_point``."""
+    """The vmapped float64 analysis of a population (module docstring, steps 1-4): the fixed
+    points of :func:`morphogen.models.fixed_points.solver` (mass-action balance; starts
+    ``s*`` then ``s = 1``), the first found, and :func:`morphogen.models.linear.stability_at`
+    there; the Euler check and the distance to the start on top."""
     model = padded_model(spec)
-    d = jnp.diag(jnp.asarray(spec.diffusion, jnp.float64))
     kappa2 = jnp.asarray(grid_modes(size)[0], jnp.float64)
-
-    def f(u, p):
-        return model.reaction(u.reshape(-1, 1), p, CENTRE).reshape(-1)
-
-    def solve(a, b):
-        return jnp.nan_to_num(jnp.linalg.lstsq(jnp.nan_to_num(a), jnp.nan_to_num(b))[0])
-
-    def newton(p, u, iters=NEWTON):
-        """Newton in ``u``."""
-        def step(_, u):
-            return u - solve(reaction_jacobian(model, u, p), f(u, p))
-
-        return jax.lax.fori_loop(0, iters, step, u)
-
-    def log_newton(p, zero):
-        """Newton on ``log P_i = log C_i`` over ``x = log u`` from ``u = 1`` for the species
-        not in ``zero`` (bool ``(n,)``; those are held at 0), with ``P = ν⁺ v`` and ``C = ν⁻ v``
-        the net production and consumption of each species (``ν^± = max(±(M_p - M_e), 0)``:
-        a catalyst's own molecules cancel; sums of monomials in ``u``, linear in ``x`` where
-        one monomial dominates), steps clipped to 5 (a factor 150): reaches fixed points
-        decades away from 1, where Newton in ``u`` stalls."""
-        me = p["Me"].astype(jnp.float64)
-        nu = (p["Mp"] - p["Me"]).astype(jnp.float64)
-        gain, loss = jnp.maximum(nu, 0.0), jnp.maximum(-nu, 0.0)
-        k = p["k"] * jnp.all(~zero[:, None] | (p["Me"] == 0), axis=0)
-
-        def g(x):
-            v = k * jnp.exp(me.T @ jnp.where(zero, 0.0, x))
-            return jnp.where(zero, x, jnp.log(gain @ v + 1e-300) - jnp.log(loss @ v + 1e-300))
-
-        def step(_, x):
-            return jnp.clip(x - jnp.clip(solve(jax.jacfwd(g)(x), g(x)), -5.0, 5.0), -600, 600)
-
-        x = jax.lax.fori_loop(0, LOG_NEWTON, step, jnp.zeros(len(spec.species)))
-        return jnp.where(zero, 0.0, jnp.exp(x))
-
-    def converged(p, u):
-        """Finite, non-negative, and every ``|f_i| <= RESIDUAL · Σ_j |ν_ij| v_j`` (finite)."""
-        flux = p["k"] * jnp.prod(jnp.where(p["Me"] > 0, u[:, None] ** p["Me"], 1.0), axis=0)
-        gross = jnp.abs((p["Mp"] - p["Me"]).astype(jnp.float64)) @ jnp.abs(flux)
-        r = jnp.abs(f(u, p))
-        return (jnp.all(jnp.isfinite(u)) & jnp.all(u >= 0) & jnp.all(jnp.isfinite(gross))
-                & jnp.all(jnp.isfinite(r)) & jnp.all(r <= RESIDUAL * gross))
-
-    def clean(u):
-        """Rounding's negative zeros (``> -1e-12`` of the largest entry) set to 0."""
-        return jnp.where(u >= -1e-12 * (1 + jnp.max(jnp.abs(u))), jnp.maximum(u, 0.0), u)
+    find = solver(model, balance="mass-action", newton=NEWTON, log_newton=LOG_NEWTON,
+                  polish=POLISH)
 
     def one(p, s0):
         start = jnp.where(jnp.all(jnp.isfinite(s0)), s0, 1.0)
-        tries = [newton(p, start)]
-        for zero in itertools.product((False, True), repeat=len(spec.species)):
-            far = log_newton(p, jnp.asarray(zero))
-            tries += [newton(p, far, POLISH), far]
-        tries.append(newton(p, jnp.ones(len(spec.species))))
-        tries = [clean(t) for t in tries]
-        u, found = tries[-1], converged(p, tries[-1])
-        for t in reversed(tries[:-1]):  # the first that converged, in this order
-            ok = converged(p, t)
-            u, found = jnp.where(ok, t, u), ok | found
-        jac = reaction_jacobian(model, u, p)
-        found = found & jnp.all(jnp.isfinite(jac))
-        scale = jnp.where(u > 1e-100, u, 1.0)
-        jac = jnp.nan_to_num(jac * scale[None, :] / scale[:, None])
-        lam = jax.vmap(lambda q: jnp.linalg.eigvals(jac - q * d))(kappa2)
-        sigma = jnp.max(jnp.real(lam), axis=1)
+        u, found = first_found(find(p, jnp.stack([start, jnp.ones_like(start)])))
+        st = stability_at(model, p, u, kappa2, found)
+        lam = st.eigenvalues
         euler = jnp.all((jnp.real(lam) >= 0) | (jnp.abs(1 + EVAL.dt * lam) <= 1 + 1e-12))
-        tol = TOL_ABS + TOL * jnp.max(jnp.abs(jac))
-        s0, rest = sigma[0], sigma[1:]
-        fast = jnp.argmax(rest) + 1
-        cls = jnp.where(~found, 4, jnp.where(s0 > tol, 2, jnp.where(
-            s0 >= -tol, 3, jnp.where(rest.max() > tol, 0, 1))))
         close = jnp.all(jnp.abs(start - u) <= 1e-2 * jnp.abs(u) + 1e-6)
-        lead = lam[0, jnp.argmax(jnp.real(lam[0]))]
-        return {"cls": cls, "sigma0": s0, "oscillatory": jnp.abs(jnp.imag(lead)) > tol,
-                "sigma_max": sigma[fast], "mode": fast, "u": u,
+        found = st.cls != CLASSES.index("no_fixed_point")
+        return {"cls": st.cls, "sigma0": st.sigma[0], "oscillatory": st.oscillatory,
+                "sigma_max": st.sigma[st.fastest], "mode": st.fastest, "u": u,
                 "near_start": close, "in_bounds": found & jnp.all(u <= S_MAX),
                 "euler_ok": euler}
 
@@ -220,6 +155,8 @@ def analyse(pop, spec: NetworkSpec) -> dict[str, np.ndarray]:
     with jax.enable_x64(True):
         p64 = {"k": jnp.asarray(np.asarray(params["k"]), jnp.float64),
                "Me": jnp.asarray(params["Me"]), "Mp": jnp.asarray(params["Mp"])}
+        p64.update({f"D_{s}": jnp.full(len(p64["k"]), d, jnp.float64)
+                    for s, d in zip(spec.species, spec.diffusion, strict=True)})
         out = _program(spec, EVAL.size)(p64, jnp.asarray(np.asarray(s0), jnp.float64))
         out = {k: np.asarray(v) for k, v in out.items()}
     out["start_valid"] = valid
