@@ -39,6 +39,9 @@ _HOMES: dict[str, str] = {
     "Solution": "morphogen.engine.simulate",
     "stack_params": "morphogen.engine.batch",
     "stack_states": "morphogen.engine.batch",
+    # search
+    "optimise": "morphogen.search.api",
+    "Gene": "morphogen.search.genes",
     # a run as data (run.json)
     "RunConfig": "morphogen.runs.config",
     "load_run_file": "morphogen.runs.config",

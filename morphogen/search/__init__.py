@@ -4,6 +4,8 @@ gradient fitting and the run archive; network evolution is morphogen.search.netw
 from morphogen.util.exports import lazy_exports
 
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "optimise": "morphogen.search.api",
+    "SearchResult": "morphogen.search.api",
     "evolve": "morphogen.search.run",
     "start": "morphogen.search.run",
     "make_strategy": "morphogen.search.run",

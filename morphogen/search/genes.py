@@ -34,13 +34,14 @@ class Gene:
     Attributes:
         name: the model parameter it sets.
         low, high: bounds (and uniform initialisation range); genomes never leave them.
-        sigma: standard deviation of the Gaussian mutation (Skaggs eq. 3.5), in gene units.
+        sigma: standard deviation of the Gaussian mutation (Skaggs eq. 3.5), in gene units;
+            default :data:`DEFAULT_SIGMA_FRACTION` of the range.
     """
 
     name: str
     low: float
     high: float
-    sigma: float
+    sigma: float | None = None  # a float once built: the default is set from the range
 
     def __post_init__(self) -> None:
         if not self.name:
@@ -49,6 +50,8 @@ class Gene:
             raise MorphogenError(
                 f"gene {self.name}: range {self.low:g}:{self.high:g} must be finite with low < high"
             )
+        if self.sigma is None:
+            object.__setattr__(self, "sigma", DEFAULT_SIGMA_FRACTION * (self.high - self.low))
         if not (math.isfinite(self.sigma) and self.sigma >= 0):
             raise MorphogenError(f"gene {self.name}: sigma must be >= 0, got {self.sigma:g}")
 
