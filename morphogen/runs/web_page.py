@@ -15,8 +15,6 @@ up to four species, scalar parameters, float32. Anything else is refused in one 
 from __future__ import annotations
 
 import base64
-import html
-import json
 from importlib import resources
 
 import numpy as np
@@ -26,6 +24,7 @@ from morphogen.render.colour import colourise, is_transfer
 from morphogen.render.webgl import step_shader
 from morphogen.runs.config import RunConfig
 from morphogen.runs.prepare import prepare
+from morphogen.util.markup import fill, html_text, script_json
 
 STEPS_CHOICES = (1, 2, 4, 8, 16, 32, 64)
 
@@ -102,7 +101,12 @@ def export_page(config: RunConfig, state: np.ndarray | None = None) -> str:
     here = resources.files("morphogen.runs")
     template = here.joinpath("web_page.html").read_text(encoding="utf-8")
     script = here.joinpath("web_page.js").read_text(encoding="utf-8")
-    return (template.replace("@TITLE@", html.escape(title))
-            .replace("@DATA@", json.dumps(data).replace("</", "<\\/"))
-            .replace("@STEP@", json.dumps(shader.source).replace("</", "<\\/"))
-            .replace("@SCRIPT@", script))
+    # one pass over the template, each value escaped for where it lands: a name holding
+    # "@DATA@" or "</script>" stays text (morphogen.util.markup)
+    try:
+        data_json = script_json(data)
+    except ValueError:
+        raise MorphogenError("export-web: a setting or the state is not a finite number; the "
+                             "page holds finite numbers only") from None
+    return fill(template, {"TITLE": html_text(title), "DATA": data_json,
+                           "STEP": script_json(shader.source), "SCRIPT": script})
