@@ -26,15 +26,21 @@ _BLOCK = re.compile(r"(?:<!-- suite: (?P<subs>.*?) -->\s*\n)?```python\n(?P<code
 
 @dataclass(frozen=True)
 class Block:
-    """One ``python`` code block of a page, with the suite's substitutions applied."""
+    """One ``python`` code block of a page and the suite comment before it (``subs``)."""
 
     page: str
     index: int
-    code: str
+    text: str
+    subs: str | None
 
     @property
     def id(self) -> str:
         return f"{self.page}#{self.index}"
+
+    @property
+    def code(self) -> str:
+        """The block with the suite's substitutions applied."""
+        return _shrink(self.text, self.subs, self.id)
 
 
 def _shrink(code: str, subs: str | None, where: str) -> str:
@@ -52,7 +58,7 @@ def blocks() -> list[Block]:
         text = page.read_text(encoding="utf-8")
         rel = page.relative_to(ROOT).as_posix()
         for i, m in enumerate(_BLOCK.finditer(text)):
-            found.append(Block(rel, i, _shrink(m["code"], m["subs"], f"{rel} block {i}")))
+            found.append(Block(rel, i, m["code"], m["subs"]))
     return found
 
 
