@@ -28,7 +28,7 @@ def run_prepared(prep: Prepared, *, progress: bool = False) -> Solution:
     clamp = tuple(c.clamp) if isinstance(c.clamp, list | tuple) else c.clamp
     solution = simulate(
         prep.model, prep.domain, prep.u0, prep.params, steps=prep.steps, dt=prep.dt,
-        scheme=c.scheme, noise=noise, clamp=clamp, seed=c.seed, every=c.every,
+        scheme=prep.scheme, noise=noise, clamp=clamp, seed=c.seed, every=c.every,
         progress=progress, unsafe=c.unsafe, rtol=c.rtol, atol=c.atol,
     )
     if c.clamp == "model" and prep.model.clamp is not None:

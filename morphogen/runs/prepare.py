@@ -1,5 +1,6 @@
 """Resolve a :class:`~morphogen.runs.config.RunConfig` into a model, a domain, parameters, an
-initial state, ``dt`` and a step count, checking every setting and the run's cost before
+initial state, a scheme, ``dt`` and a step count (the one run policy,
+:func:`morphogen.runs.policy.resolve_run`), checking every setting and the run's cost before
 anything is written."""
 
 from __future__ import annotations
@@ -16,15 +17,15 @@ from morphogen.engine.initial import make_initial
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model, Tensor
 from morphogen.runs.config import SNAPSHOTS, RunConfig
+from morphogen.runs.policy import resolve_run
 from morphogen.runs.schema import validate_config
-from morphogen.solvers.auto import choose_scheme
-from morphogen.solvers.step import max_stable_dt
 from morphogen.util import guard
 
 
 @dataclass
 class Prepared:
-    """A config resolved into objects, ready to run."""
+    """A config resolved into objects, ready to run; ``scheme`` is the config's with ``auto``
+    resolved, ``reason`` the policy's word on ``dt``."""
 
     config: RunConfig
     model: Model
@@ -33,6 +34,8 @@ class Prepared:
     u0: np.ndarray
     dt: float
     steps: int
+    scheme: str = "euler"
+    reason: str = "given"
 
 
 def load_config_model(config: RunConfig) -> Model:
@@ -79,16 +82,13 @@ def prepare(config: RunConfig) -> Prepared:
                       **config.init_options)
     if config.mesh:
         u0, params = _mesh_fields(config, model, domain, u0, params)
-    dt = float(config.dt) if config.dt is not None else _default_dt(model, domain, params, config)
-    if config.steps is not None:
-        steps = config.steps
-    else:
-        total = config.time if config.time is not None else model.t_end
-        steps = round(total / dt) if math.isfinite(total / dt) else total / dt
-    steps = guard.check_steps(steps, cells, len(model.species))
+    plan = resolve_run(model, domain, params, scheme=config.scheme, dt=config.dt,
+                       steps=config.steps, t_end=config.time, unsafe=config.unsafe,
+                       rtol=config.rtol, atol=config.atol)
+    steps = guard.check_steps(plan.steps, cells, len(model.species))
     if config.species is not None:
         model.species_index(config.species)
-    return Prepared(config, model, domain, params, u0, dt, steps)
+    return Prepared(config, model, domain, params, u0, plan.dt, steps, plan.scheme, plan.reason)
 
 
 def check_diffusion(model: Model, domain: Any, params: dict[str, np.ndarray]) -> None:
@@ -158,16 +158,3 @@ def set_precision(precision: str) -> None:
     if precision not in ("float32", "float64"):
         raise MorphogenError(f"precision must be float32 or float64, not {precision!r}")
     jax.config.update("jax_enable_x64", precision == "float64")
-
-
-def _default_dt(model: Model, domain: Any, params: dict, config: RunConfig) -> float:
-    """The model's suggested dt, reduced to 90 % of the stability limit where the domain
-    (a 3D grid, a fine mesh, a larger diffusion) needs it; with ``auto`` choosing a stiff
-    scheme, that scheme's (reaction-limited) limit."""
-    scheme = config.scheme
-    if scheme == "auto":
-        scheme = choose_scheme(model, domain, params)
-        if scheme != "euler":
-            return max_stable_dt(model, domain, params, scheme)
-    limit = max_stable_dt(model, domain, params, scheme)
-    return float(min(model.dt, 0.9 * limit))

@@ -16,8 +16,10 @@ CPU (``bench/results/integrators.json``: the FFTs grow as ``N log N`` while XLA'
 stays memory-bound), so ``auto`` chooses ``imex`` when ``s >`` :data:`AUTO_RATIO` on a grid
 where the Fourier solve applies (periodic or no-flux boundaries, constant isotropic diffusion),
 and ``euler`` otherwise. Schnakenberg with ``Dv/Du = 40`` at ``dx = 1`` has ``s ≈ 17.8``
-(``euler``: ``imex`` at its limit ran 0.83x Euler's speed at 256²), with ``Dv/Du = 80``
-``s ≈ 35.6`` (``imex``); Gray-Scott's defaults ``s ≈ 9.8`` (``euler``).
+(``euler``: ``imex`` at its limit ran 0.83x Euler's speed at 256²), at ``dx = 1/2`` ``s ≈ 71``
+(``imex``); with ``Dv/Du = 80`` at ``dx = 1`` ``s ≈ 18`` (``euler``: the spots' Jacobian halves
+the IMEX step to 0.051, :mod:`morphogen.solvers.pattern_limit`; ``imex`` at the ground state's
+0.1 blew up); Gray-Scott's defaults ``s ≈ 9.8`` (``euler``).
 
 With ``--rtol``/``--atol``, ``auto`` picks an error-controlled scheme instead
 (:func:`choose_error_controlled`): ``etdrk4-adaptive`` where diffusion is solved exactly, else

@@ -15,8 +15,9 @@ diffusion and periodic or no-flux boundaries (:mod:`morphogen.solvers.fourier`),
 mode of pure diffusion decays by the scheme's rational function of ``dt D lambda(k)``
 (:meth:`Imex1.amplification`, :meth:`Ars222.amplification`); elsewhere (meshes, Dirichlet
 boundaries, spatially varying or anisotropic diffusion) it is solved by conjugate gradients
-(:mod:`morphogen.solvers.imex_cg`). The step size is then limited by the reaction only
-(:mod:`morphogen.solvers.stability`).
+(:mod:`morphogen.solvers.imex_cg`). The step size is then limited by the reaction only: at the
+ground state (:mod:`morphogen.solvers.stability`) and, on 2D grids, along a pilot run of the
+pattern (:mod:`morphogen.solvers.pattern_limit`).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from morphogen.domains.base import Domain
 from morphogen.models.model import Array, Model, Params
 from morphogen.solvers.base import Advance, Stepper, held_mask
 from morphogen.solvers.imex_cg import ImplicitDiffusion
+from morphogen.solvers.pattern_limit import pattern_limit
 from morphogen.solvers.registry import SCHEMES
 from morphogen.solvers.stability import linear_limit
 
@@ -49,7 +51,13 @@ class _Imex(Stepper):
 
     def limit(self, model: Model, domain: Domain, params: Params, *,
               batched: bool = False) -> float:
-        return linear_limit(model, domain, params, None, batched=batched)
+        """The reaction's limit: the ground state's (with its margin) and, for one parameter
+        set on a 2D grid, the pattern's (:func:`~morphogen.solvers.pattern_limit.pattern_limit`),
+        whichever is smaller."""
+        ground = linear_limit(model, domain, params, None, batched=batched)
+        if batched:
+            return ground
+        return min(ground, pattern_limit(model, domain, params, ground, Imex1().advance))
 
     @staticmethod
     def solver(model: Model, domain: Domain) -> ImplicitDiffusion:
