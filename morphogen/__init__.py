@@ -46,6 +46,9 @@ _HOMES: dict[str, str] = {
     "RunConfig": "morphogen.runs.config",
     "load_run_file": "morphogen.runs.config",
     "execute": "morphogen.runs.execute",
+    # linear stability (morphogen analyse)
+    "analyse": "morphogen.runs.analysis",
+    "Analysis": "morphogen.runs.analysis",
     # errors
     "MorphogenError": "morphogen.errors",
     "BlowUpError": "morphogen.errors",

@@ -222,14 +222,15 @@ def turing_batch(model: Model, params: Params, starts: Array, kappa2: Array, *,
     points = fixed_points_batch(model, params, starts, balance=balance)
     u, found = first_found(points)
     dtype = jnp.asarray(starts).dtype
-    return u, found, _stability_program(model)(params, u, jnp.asarray(kappa2, dtype), found)
+    return u, found, stability_program(model)(params, u, jnp.asarray(kappa2, dtype), found)
 
 
 _STABILITY: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def _stability_program(model: Model) -> Callable:
-    """``jit(vmap(stability_at))`` for ``model``, kept for the model's lifetime."""
+def stability_program(model: Model) -> Callable:
+    """``jit(vmap(stability_at))`` for ``model``, kept for the model's lifetime: ``(params
+    (P, ...), u (P, S), kappa2 (K,), found (P,)) -> Stability`` with a leading ``P``."""
     if model not in _STABILITY:
         _STABILITY[model] = jax.jit(jax.vmap(
             lambda p, u, q, f: stability_at(model, p, u, q, f), in_axes=(0, 0, None, 0)))
