@@ -11,6 +11,7 @@ from morphogen.search.networks.cluster import cell_fitness, cluster_head_fitness
 from morphogen.search.networks.evolve import (
     Evaluation,
     evaluate,
+    fixed_states,
     homogeneous_states,
     initial_state,
     starts,
@@ -88,7 +89,7 @@ def test_steady_start_is_the_homogeneous_state_times_noise():
     mp = np.array([[3, 0, 2], [0, 1, 1], [1, 0, 0]])
     fig4 = make_genome(spec, [0, 0, 0.031, 0.015, 0.02, 0, 0.094, 0.3, 0.0019], me, mp)
     params = genome_params(stack([table2_genome(spec), fig4]), spec)
-    ev = Evaluation(size=8, init_noise=0.1)
+    ev = Evaluation(size=8, init="steady", init_noise=0.1)
     s = np.asarray(homogeneous_states(params, spec, ev))
     a = 0.094 * 0.031 * 0.02 / (0.3 * 0.0019 * 0.015)
     np.testing.assert_allclose(s, [[1, 1, 1], [a, 0.0019 * a * a / 0.02,
@@ -106,7 +107,8 @@ def test_a_network_whose_well_mixed_state_blows_up_starts_invalid():
     spec = table2_spec()
     g = table2_genome(spec)
     bad = g._replace(mantissa=g.mantissa.at[6].set(99), exponent=g.exponent.at[6].set(2))
-    ev = Evaluation(size=8, dt=0.5, t_start=10.0, interval=5.0, rounds=2, init_relax=50.0)
+    ev = Evaluation(size=8, dt=0.5, t_start=10.0, interval=5.0, rounds=2, init="steady",
+                    init_relax=50.0)
     fitness, states = evaluate(stack([g, bad]), initial_state(jax.random.key(2), spec, ev),
                                spec, ev)
     assert fitness[1] == -1.0 and (states[1] == 0).all()
@@ -149,3 +151,42 @@ def test_cli_init_option_is_saved_and_resumed(tmp_path):
     assert saved["init"] == "uniform" and saved["init_noise"] == 0.2
     assert main(["networks", "--out", str(out), "--resume", "--generations", "2", "--quiet"]) == 0
     assert record.saved_settings(out)["init"] == "uniform"
+
+
+def test_fixed_start_is_each_genomes_fixed_point_times_the_shared_noise():
+    spec = table2_spec()
+    me = np.array([[2, 0, 2], [0, 1, 0], [1, 1, 0]])
+    mp = np.array([[3, 0, 2], [0, 1, 1], [1, 0, 0]])
+    fig4 = make_genome(spec, [0, 0, 0.031, 0.015, 0.02, 0, 0.094, 0.3, 0.0019], me, mp)
+    # without B + C -> B nothing consumes C, fed at 0.1: dC/dt > 0 everywhere, no fixed point
+    k = [0.0, 0.0, 0.1, 0.01, 0.02, 0.0, 0.01, 0.0, 0.02]
+    unfixed = make_genome(spec, k, me, mp)
+    params = genome_params(stack([table2_genome(spec), fig4, unfixed]), spec)
+    u_star, ok = fixed_states(params, spec)
+    a = 0.094 * 0.031 * 0.02 / (0.3 * 0.0019 * 0.015)  # exact, as in the steady test above
+    b = 0.0019 * a * a / 0.02
+    np.testing.assert_allclose(np.asarray(u_star)[:2], [[1, 1, 1], [a, b, 0.031 / (0.3 * b)]],
+                               rtol=1e-4)
+    assert np.asarray(ok).tolist() == [True, True, False]
+    ev = Evaluation(size=8, init="fixed", init_noise=0.1)
+    u0 = np.asarray(initial_state(jax.random.key(3), spec, ev))
+    assert 0.0 <= u0.min() and u0.max() < 2.0  # the shared uniform field
+    u = np.asarray(starts(jnp.asarray(u0), params, spec, ev))
+    noise = 1.0 + 0.1 * (u0 - 1.0)  # ξ = 2 u0 / init_high - 1
+    np.testing.assert_allclose(u[:2], np.asarray(u_star)[:2, :, None, None] * noise[None],
+                               rtol=1e-6)
+    np.testing.assert_array_equal(u[2], u0)
+
+
+def test_replay_file_of_a_fixed_start_run_starts_at_the_fixed_point(tmp_path):
+    from dataclasses import asdict
+
+    from morphogen.search.networks.record import best_run_file, genome_vectors
+
+    spec = table2_spec()
+    vector = genome_vectors(stack([table2_genome(spec)]))[0]
+    best = {"genome": vector.tolist(), "fitness": 1000.0, "gen": 0, "idx": 0}
+    ev = asdict(Evaluation(size=8, init="fixed"))
+    config = best_run_file(best, spec, ev, "r1", tmp_path)["config"]
+    assert config["init"] == "noise" and config["init_options"] == {"amplitude": 0.1}
+    assert "[initial]\nA = 1.0\nB = 1.0\nC = 1.0" in config["model_source"]

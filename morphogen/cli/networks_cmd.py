@@ -18,8 +18,8 @@ from morphogen.util.progress import ProgressBar
 
 DEFAULTS = {"mode": "rates", "population": 150, "generations": 100, "seed": 0, "size": 32,
             "dt": 0.1, "t_start": 2000.0, "interval": 200.0, "rounds": 10, "m_max": 12,
-            "tournament": 2, "init": "steady", "init_noise": 0.1, "stage2": "graded",
-            "checkerboards": "invalid", "draw": "log-uniform"}
+            "tournament": 2, "init": "fixed", "init_noise": 0.1, "stage2": "graded",
+            "checkerboards": "invalid", "draw": "decade"}
 """Settings of a new run (Table 1); ``--resume`` takes the run's own instead."""
 
 
@@ -51,12 +51,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--t-start", type=float, help="first evaluation time (default: 2000)")
     p.add_argument("--interval", type=float, help="time between evaluations (default: 200)")
     p.add_argument("--rounds", type=int, help="evaluation rounds (default: 10)")
-    p.add_argument("--init", choices=("steady", "uniform"),
-                   help="initial condition of each evaluation: 'steady' (default) starts every "
-                   "individual at its well-mixed state times 1 + noise, 'uniform' starts all "
-                   "from one state uniform in [0, 2)")
+    p.add_argument("--init", choices=("fixed", "steady", "uniform"),
+                   help="initial condition of each evaluation: 'fixed' starts every individual "
+                   "at its own homogeneous fixed point (Newton) times 1 + noise, 'steady' at "
+                   "its well-mixed state after t = 5000 from 1, times 1 + noise, 'uniform' "
+                   "all from one state uniform in [0, 2) (also 'fixed' without a valid fixed "
+                   "point); default: fixed")
     p.add_argument("--init-noise", type=float,
-                   help="relative noise of --init steady (default: 0.1, i.e. ±10 %%)")
+                   help="relative noise of --init fixed and steady (default: 0.1, i.e. ±10 %%)")
     p.add_argument("--stage2", choices=("graded", "activator", "literal"),
                    help="stage two of the fitness, 'presence of any non-homogeneous pattern': "
                    "'graded' (default) tests the activator and ranks a state without a peak by "
@@ -66,8 +68,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="grid-scale checkerboards (a numerical artefact of the step): "
                    "'invalid' (default) or 'scored' as patterns (the seed's words)")
     p.add_argument("--draw", choices=("log-uniform", "decade"),
-                   help="initial rates: 'log-uniform' (default) over every exponent, 'decade' "
-                   "within one decade of the template's (Table 2 in --mode rates)")
+                   help="initial rates: 'decade' (default) within one decade of the "
+                   "template's (Table 2 in --mode rates; network mode's evolvable slots have "
+                   "none, so there it is log-uniform), 'log-uniform' over every exponent")
     p.add_argument("--m-max", type=int, help="reaction slots, network mode (default: 12)")
     p.add_argument("--tournament", type=int, help="default: 2")
     p.add_argument("--archive", help="run archive (default $MORPHOGEN_ARCHIVE or "

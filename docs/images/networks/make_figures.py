@@ -2,11 +2,14 @@
 figures.
 
     python docs/images/networks/make_figures.py RUNS_DIR [--runs N] [--workers W] [--plot-only]
+        [--experiments 1 2] [--tag TAG]
 
 Experiment 1 (§4.1, rates of the Table-2 network) and Experiment 2 (§4.2, n = 3, m ≤ 12,
 networks evolved), ``N`` runs each (seeds 1, 2, …; default :data:`RUNS`), at the full Table-1
 budget :data:`BUDGET` and evaluation :data:`EVAL` (150 individuals, 100 generations, 32²,
-Δt = 0.1, 10 rounds from t = 2000 every 200, tournament 2). Run folders go to
+Δt = 0.1, 10 rounds from t = 2000 every 200, tournament 2; the default fixed-point start,
+graded stage two, checkerboards invalid, Experiment 1's rates drawn within a decade of Table 2's:
+docs/networks.md). ``--experiments`` picks which to run and draw. Run folders go to
 ``RUNS_DIR/exp1-seedS`` and ``RUNS_DIR/exp2-seedS``; finished runs are not run again and
 unfinished ones are resumed. ``W`` runs go at once, each in its own single-threaded process (one
 per core). Every generation's CPU-seconds (``time.process_time`` of its process) and wall
@@ -14,7 +17,9 @@ seconds are appended to ``RUNS_DIR/<run>/times.txt``.
 
 Then the figures: best fitness per generation, one curve per run (the seed's figs. 3 and 5),
 the best pattern of each experiment and of the hand-made network as A/B/C heat maps with colour
-bars (figs. 1, 4, 6), and the best Experiment-2 network's reaction table next to its drawing.
+bars (figs. 1, 4, 6), and the best Experiment-2 network's reaction table next to its drawing,
+each PNG named with ``--tag`` (``fitness_exp1_TAG.png``; none for the earlier literal-reading
+runs' figures); an experiment without a finished run is skipped.
 """
 
 from __future__ import annotations
@@ -66,7 +71,7 @@ def experiment(number: int) -> tuple[NetworkSpec, object, Operators]:
     """Spec, template genome and operators of Experiment 1 (rates) or 2 (network)."""
     if number == 1:
         spec = table2_spec()
-        return spec, table2_genome(spec), Operators(mode="rates")
+        return spec, table2_genome(spec), Operators(mode="rates", draw="decade")
     spec = NetworkSpec(("A", "B", "C"), 12, (0.005, 0.2, 0.0), fixed=(0, 1),
                        fixed_rates=(0.0, 0.0))
     return spec, make_genome(spec, [0.0] * spec.m_max), Operators(mode="network")
@@ -95,11 +100,12 @@ def _one_run(args: tuple[Path, int, int]) -> str:
     return one_run(*args)
 
 
-def run_all(root: Path, runs: int, workers: int) -> None:
-    """Every run of both experiments that is not finished yet, ``workers`` at a time (the
+def run_all(root: Path, runs: int, workers: int, experiments: tuple[int, ...] = (1, 2)
+            ) -> None:
+    """Every run of the experiments that is not finished yet, ``workers`` at a time (the
     longer Experiment-2 runs first, so the workers finish together)."""
     todo = [(root / f"exp{number}-seed{seed}", number, seed)
-            for seed in range(1, runs + 1) for number in (2, 1)
+            for seed in range(1, runs + 1) for number in (2, 1) if number in experiments
             if completed(root / f"exp{number}-seed{seed}") < BUDGET["generations"]]
     if workers <= 1:
         for task in todo:
@@ -115,6 +121,14 @@ def finished(root: Path, number: int) -> list[Path]:
     return sorted((p for p in root.glob(f"exp{number}-seed*")
                    if completed(p) >= BUDGET["generations"]),
                   key=lambda p: int(p.name.rsplit("seed", 1)[1]))
+
+
+TAG = [""]
+"""Suffix of the figures' names (``--tag``)."""
+
+
+def _png(name: str) -> Path:
+    return HERE / f"{name}{'_' + TAG[0] if TAG[0] else ''}.png"
 
 
 def fitness_figure(root: Path, number: int) -> None:
@@ -145,7 +159,7 @@ def fitness_figure(root: Path, number: int) -> None:
     for ax in (best, valid):
         ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(HERE / f"fitness_exp{number}.png")
+    fig.savefig(_png(f"fitness_exp{number}"))
 
 
 def best_genome(root: Path, number: int) -> tuple[Genome, float, str]:
@@ -185,7 +199,7 @@ def pattern_figure(genome: Genome, spec: NetworkSpec, name: str, title: str) -> 
     fig.suptitle(f"{title}: t = {t:g}, fitness {fitness[0]:.1f} of {EVAL.size ** 2}",
                  fontsize=10)
     fig.tight_layout()
-    fig.savefig(HERE / f"{name}.png")
+    fig.savefig(_png(name))
     return float(fitness[0])
 
 
@@ -209,16 +223,17 @@ def network_figure(genome: Genome, spec: NetworkSpec, label: str) -> None:
     right.set_axis_off()
     fig.suptitle(f"best network of Experiment 2 ({label}); static inflow/decay in the table "
                  "only", fontsize=10)
-    fig.savefig(HERE / "network_exp2.png")
+    fig.savefig(_png("network_exp2"))
 
 
-def make_figures(root: Path) -> None:
-    for number in (1, 2):
+def make_figures(root: Path, experiments: tuple[int, ...] = (1, 2)) -> None:
+    experiments = tuple(n for n in experiments if finished(root, n))
+    for number in experiments:
         fitness_figure(root, number)
     spec = table2_spec()
     hand = pattern_figure(table2_genome(spec), spec, "pattern_table2", "hand-made (Table 2)")
     print(f"hand-made Table-2 network: fitness {hand:.2f}")
-    for number in (1, 2):
+    for number in experiments:
         genome, fit, folder = best_genome(root, number)
         spec = experiment(number)[0]
         again = pattern_figure(genome, spec, f"pattern_exp{number}",
@@ -236,8 +251,11 @@ if __name__ == "__main__":
     parser.add_argument("--runs", type=int, default=RUNS)
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--plot-only", action="store_true")
+    parser.add_argument("--experiments", type=int, nargs="+", choices=(1, 2), default=(1, 2))
+    parser.add_argument("--tag", default="")
     args = parser.parse_args()
+    TAG[0] = args.tag
     if not args.plot_only:
         os.environ.setdefault("XLA_FLAGS", SINGLE_THREAD)
-        run_all(args.runs_dir, args.runs, args.workers)
-    make_figures(args.runs_dir)
+        run_all(args.runs_dir, args.runs, args.workers, tuple(args.experiments))
+    make_figures(args.runs_dir, tuple(args.experiments))

@@ -5,7 +5,14 @@ shared by all individuals, "like exposing them to the same environment" (§3.1);
 re-evaluated under it. The seed does not say how its random initial conditions are drawn;
 :attr:`Evaluation.init` chooses (:data:`INIT_KINDS`):
 
-- ``"steady"`` (default): every individual starts near its own homogeneous state, ``s* · (1 +
+- ``"fixed"`` (default): every individual starts at its own homogeneous fixed point, ``u* · (1 +
+  init_noise · ξ)``, ``u*`` a root of its reaction found by the batched Newton solver of
+  :mod:`morphogen.models.fixed_points` (:func:`fixed_states`) and ``ξ`` uniform in ``[-1, 1)``
+  drawn from the shared field; a genome without a valid fixed point starts from the shared
+  field itself, uniform in ``[0, init_high)``. The shared noise is the "new, random initial
+  condition" (§3.1); a Turing-unstable genome grows its pattern from it, whatever its
+  well-mixed system does from other starts.
+- ``"steady"``: every individual starts near its own homogeneous state, ``s* · (1 +
   init_noise · ξ)`` per cell and species, with ``ξ`` uniform in ``[-1, 1)`` (the shared field)
   and ``s*`` the state its well-mixed system (the reaction alone, one cell, explicit Euler at
   ``dt``) reaches from ``s = 1`` after ``init_relax`` time units: the homogeneous steady state
@@ -52,15 +59,17 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
+from morphogen.models.fixed_points import fixed_points_batch
+from morphogen.models.model import Model
 from morphogen.search.fitness import INVALID
 from morphogen.search.networks.cluster import S_MAX, STAGE2, cluster_head_fitness
 from morphogen.search.networks.genome import Genome, NetworkSpec
 from morphogen.search.networks.lanes import advance_population
 from morphogen.search.networks.operators import Operators, next_generation, random_population
-from morphogen.search.networks.reaction import genome_params, padded_reaction
+from morphogen.search.networks.reaction import genome_params, padded_model, padded_reaction
 
 Array = Any
-INIT_KINDS = ("steady", "uniform")
+INIT_KINDS = ("fixed", "steady", "uniform")
 """Initial conditions of the evaluation (module docstring)."""
 LEGACY_EV = {"init": "uniform", "init_noise": 0.1, "init_relax": 5000.0, "stage2": "literal",
              "reject_checkerboards": False}
@@ -95,7 +104,7 @@ class Evaluation:
     rounds: int = 10
     init_high: float = 2.0
     activator: int = 0
-    init: str = "steady"
+    init: str = "fixed"
     init_noise: float = 0.1
     init_relax: float = 5000.0
     stage2: str = "graded"
@@ -160,10 +169,11 @@ def within_bounds(u: Array) -> Array:
 
 def initial_state(key: Array, spec: NetworkSpec, ev: Evaluation) -> Array:
     """The generation's shared random field ``(n, size, size)``: the initial state itself
-    (``"uniform"``), or the noise factor ``1 + init_noise · ξ`` (``"steady"``); the start of
-    each individual is :func:`starts`."""
+    (``"uniform"``, and ``"fixed"``, which derives its noise factor from it), or the noise
+    factor ``1 + init_noise · ξ`` (``"steady"``); the start of each individual is
+    :func:`starts`."""
     shape = (spec.n, ev.size, ev.size)
-    if ev.init == "uniform":
+    if ev.init in ("uniform", "fixed"):
         return jax.random.uniform(key, shape, jnp.float32, 0.0, ev.init_high)
     return 1.0 + ev.init_noise * jax.random.uniform(key, shape, jnp.float32, -1.0, 1.0)
 
@@ -186,11 +196,45 @@ def homogeneous_states(params: dict, spec: NetworkSpec, ev: Evaluation) -> Array
     return _relax(spec, steps, float(ev.dt))({k: params[k] for k in ("k", "Me", "Mp")})
 
 
+@lru_cache(maxsize=16)
+def _fixed_point_model(spec: NetworkSpec) -> Model:
+    """One padded model per spec, so the fixed-point finder's compiled program is kept."""
+    return padded_model(spec)
+
+
+def fixed_states(params: dict, spec: NetworkSpec) -> tuple[Array, Array]:
+    """Each genome's homogeneous fixed point ``u*`` ``(P, n)`` and whether it has a valid one
+    ``(P,)``: a root of its reaction, ``R(u*) = 0`` (Yamamoto eqs. 2-3 without diffusion),
+    found by :func:`morphogen.models.fixed_points.fixed_points_batch` (Newton in ``u`` from
+    ``u = 1``, then in log-concentrations with every subset of species held at 0; float32,
+    relative residual ``<= 2e-5`` of the gross rates). Of the roots found, the first with
+    every species positive (an activator at 0 cannot grow a pattern), else the first; valid
+    when there is one and it lies in ``[0, s_max]``."""
+    model = _fixed_point_model(spec)
+    points = fixed_points_batch(model, {k: params[k] for k in ("k", "Me", "Mp")},
+                                jnp.ones((1, spec.n), jnp.float32), balance="mass-action")
+    positive = points.found & jnp.all(points.u > 0, axis=-1)
+    pick = jnp.argmax(jnp.where(positive.any(axis=-1, keepdims=True), positive, points.found),
+                      axis=-1)
+    u = jnp.take_along_axis(points.u, pick[:, None, None], axis=1)[:, 0]
+    ok = points.found.any(axis=-1) & jnp.all(jnp.isfinite(u) & (u >= 0) & (u <= S_MAX), axis=-1)
+    return u, ok
+
+
 def starts(u0: Array, params: dict, spec: NetworkSpec, ev: Evaluation) -> Array:
-    """Initial states ``(P, n, size, size)`` from the shared field ``u0``."""
+    """Initial states ``(P, n, size, size)`` from the shared field ``u0``.
+
+    ``"fixed"``: ``u* · (1 + init_noise · ξ)`` with ``u*`` the genome's own fixed point
+    (:func:`fixed_states`) and ``ξ = 2 u0 / init_high - 1`` (uniform in ``[-1, 1)``, the same
+    draw as the shared field); a genome without a valid fixed point starts from ``u0``."""
     size = params["k"].shape[0]
     if ev.init == "uniform":
         return jnp.broadcast_to(u0, (size, *u0.shape))
+    if ev.init == "fixed":
+        u_star, ok = fixed_states(params, spec)
+        noise = 1.0 + ev.init_noise * (2.0 * u0 / ev.init_high - 1.0)
+        return jnp.where(ok[:, None, None, None], u_star[:, :, None, None] * noise[None],
+                         u0[None])
     return homogeneous_states(params, spec, ev)[:, :, None, None] * u0[None]
 
 

@@ -13,7 +13,8 @@ show`` summarises it:
   (:func:`~morphogen.search.networks.export.genome_network`) of the fittest genome so far, so
   ``morphogen simulate --config best/best_1.json`` replays it on the evaluation's grid, time
   step and number of steps, from the evaluation's kind of initial state: noise of ±``init_noise``
-  around the genome's well-mixed state (``init = "steady"``) or uniform in ``[0, init_high)``.
+  around the genome's fixed point (``init = "fixed"``) or well-mixed state (``"steady"``), or
+  uniform in ``[0, init_high)``.
 
 A generation is recorded *before* ``state.npz`` is saved: a run killed between the two repeats
 that generation on ``--resume`` and records it again (replacing the row), with the same numbers,
@@ -204,10 +205,10 @@ def best_run_file(best: dict[str, Any], spec: NetworkSpec, ev: dict[str, Any], r
                   out: Path) -> dict[str, Any]:
     """``run.json`` for an archived individual: the exported model file embedded, the
     evaluation's grid, ``dt`` and steps to its last round, and its kind of initial state
-    (noise around the genome's well-mixed state, or uniform)."""
+    (noise around the genome's fixed point or well-mixed state, or uniform)."""
     from morphogen.models.network import to_toml
     from morphogen.runs.config import FORMAT, RunConfig
-    from morphogen.search.networks.evolve import Evaluation, homogeneous_states
+    from morphogen.search.networks.evolve import Evaluation, fixed_states, homogeneous_states
     from morphogen.search.networks.export import genome_network
     from morphogen.search.networks.genome import stack
     from morphogen.search.networks.reaction import genome_params
@@ -218,12 +219,16 @@ def best_run_file(best: dict[str, Any], spec: NetworkSpec, ev: dict[str, Any], r
     genome = vector_genome(best["genome"], spec)
     evaluation = Evaluation(**{**_LEGACY_EV, **ev})
     initial, init = None, ("random", {"low": 0.0, "high": float(evaluation.init_high)})
-    if evaluation.init == "steady":
-        state = np.asarray(homogeneous_states(genome_params(stack([genome]), spec), spec,
-                                              evaluation))[0]
-        if np.isfinite(state).all():
-            initial = tuple(float(x) for x in state)
-            init = ("noise", {"amplitude": float(evaluation.init_noise)})
+    params = genome_params(stack([genome]), spec)
+    state = None
+    if evaluation.init == "fixed":
+        u_star, ok = fixed_states(params, spec)
+        state = np.asarray(u_star)[0] if bool(ok[0]) else None
+    elif evaluation.init == "steady":
+        state = np.asarray(homogeneous_states(params, spec, evaluation))[0]
+    if state is not None and np.isfinite(state).all():
+        initial = tuple(float(x) for x in state)
+        init = ("noise", {"amplitude": float(evaluation.init_noise)})
     net = genome_network(genome, spec, name=f"{run_id}-best", dt=dt, t_end=steps * dt,
                          initial=initial, description=f"best genome of run {run_id} (fitness "
                          f"{best['fitness']:.2f})")
