@@ -51,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
         classify_atlas,
         compute_atlas,
         instability_report,
+        plan_atlas,
         write_families,
     )
     from morphogen.runs.prepare import set_precision
@@ -63,8 +64,9 @@ def run(args: argparse.Namespace) -> int:
     set_precision(run["precision"])
     grid = Grid(tuple(run["size"]), dx=run["dx"], boundary=run["boundary"],
                 stencil=run["stencil"])
-    dt = run["dt"] or model.dt
-    steps = run["steps"] or int(round((run["time"] or model.t_end) / dt))
+    plan = plan_atlas(model, grid, x, y, params=run["params"], scheme=run["scheme"],
+                      dt=run["dt"], steps=run["steps"], time=run["time"], unsafe=run["unsafe"])
+    dt, steps = plan.dt, plan.steps
     species = run["species"] or model.display_species
     index = model.species_index(species)
     watch = _watch(args.watch, steps) if args.classify else None
@@ -74,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     atlas = compute_atlas(model, grid, x, y, params=run["params"], steps=steps, dt=dt,
                           init=run["init"], seed=run["seed"],
                           progress=options.show_progress(args), unsafe=run["unsafe"],
-                          watch=watch, scheme=run["scheme"])
+                          watch=watch, scheme=plan.scheme)
     ensure_writable_dir(out)  # only once the run has passed its checks and finished
     fields = atlas.states[:, :, index]
     if fields.ndim == 5:

@@ -27,7 +27,7 @@ from morphogen.render import (
 )
 from morphogen.runs.atlas import Axis, compute_atlas
 from morphogen.runs.outputs import picture
-from morphogen.solvers.step import max_stable_dt
+from morphogen.runs.policy import resolve_run
 from morphogen.util.io import ensure_writable_dir
 
 CMAPS = ("magma", "viridis", "inferno", "cividis", "plasma")
@@ -40,8 +40,8 @@ def model_gallery(out: Path, size: int) -> list[tuple[str, str]]:
         model = get_model(name)
         grid = Grid((size, size))
         p = model.parameters()
-        dt = min(model.dt, 0.9 * max_stable_dt(model, grid, p))
-        steps = int(round(model.t_end / dt))
+        plan = resolve_run(model, grid, p)
+        dt, steps = plan.dt, plan.steps
         u0 = make_initial(model.init, model, grid, p, seed=i)
         start = time.perf_counter()
         sol = simulate(model, grid, u0, p, steps=steps, dt=dt)

@@ -10,7 +10,7 @@ from morphogen.cli import options
 from morphogen.errors import MorphogenError
 from morphogen.models.registry import load_model
 from morphogen.search.archive import Archive
-from morphogen.search.evaluate import FITNESS_KINDS, Problem
+from morphogen.search.evaluate import FITNESS_KINDS, Problem, policy_problem
 from morphogen.search.executors import EXECUTORS, make_executor, split_notice
 from morphogen.search.fitness import ask_selection
 from morphogen.search.genes import Gene, check_genes, preset_genes
@@ -92,16 +92,16 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     if args.size and "x" not in args.size.lower():
         args.size = f"{args.size}x{args.size}"  # evolve takes N for an N x N grid
     run = options.run_settings(args, "evolve", DEFAULTS)
-    dt = float(run["dt"] if run["dt"] is not None else model.dt)
-    steps = run["steps"] if run["steps"] is not None else round((run["time"] or model.t_end) / dt)
     problem = Problem(
         model=args.model, genes=genes, model_source=model.source, preset=run["preset"],
         params=run["params"], size=tuple(run["size"]), dx=run["dx"], boundary=run["boundary"],
-        stencil=run["stencil"], dt=dt, steps=max(1, int(steps)), scheme=run["scheme"],
+        stencil=run["stencil"], scheme=run["scheme"],
         clamp=run["clamp"], seed=run["seed"], init=run["init"] or model.init,
         init_options=run["init_options"], fitness=args.fitness,
         target=str(Path(args.target).absolute()) if args.target else None,
     )
+    problem = policy_problem(problem, dt=run["dt"], steps=run["steps"], time=run["time"],
+                             model=model)
     if args.fitness != "target" and args.target:
         raise MorphogenError("--target is used only with --fitness target")
     if args.target:

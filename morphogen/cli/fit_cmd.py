@@ -14,7 +14,7 @@ from morphogen.cli import options
 from morphogen.errors import MorphogenError
 from morphogen.learn.extractors import EXTRACTORS
 from morphogen.models.registry import load_model
-from morphogen.search.evaluate import Problem
+from morphogen.search.evaluate import Problem, policy_problem
 from morphogen.search.genes import Gene, check_genes
 from morphogen.search.gradient import (
     GradientAscent,
@@ -69,14 +69,15 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     if not Path(args.target).is_file():
         raise MorphogenError(f"target image {args.target} does not exist")
     run = options.run_settings(args, "fit", DEFAULTS)
-    dt = float(run["dt"] if run["dt"] is not None else model.dt)
-    return Problem(
+    problem = Problem(
         model=args.model, genes=genes, model_source=model.source, preset=run["preset"],
-        params=run["params"], size=tuple(run["size"]), stencil=run["stencil"], dt=dt,
-        steps=run["steps"], scheme=run["scheme"], seed=run["seed"],
+        params=run["params"], size=tuple(run["size"]), stencil=run["stencil"],
+        scheme=run["scheme"], seed=run["seed"],
         init=run["init"] or model.init, init_options=run["init_options"], fitness="target",
         target=str(Path(args.target).absolute()),
     )
+    return policy_problem(problem, dt=run["dt"], steps=run["steps"], time=run.get("time"),
+                          model=model)
 
 
 def run(args: argparse.Namespace) -> int:

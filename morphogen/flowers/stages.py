@@ -149,7 +149,7 @@ def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pi
     from morphogen.engine.simulate import simulate
     from morphogen.models.registry import load_model
     from morphogen.render.mesh_outputs import write_mesh_outputs
-    from morphogen.solvers.step import max_stable_dt
+    from morphogen.solvers.policy import plan_run
 
     if "model" not in stage:
         raise MorphogenError("a simulate stage needs model = NAME or a model file")
@@ -174,14 +174,14 @@ def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pi
     current = mesh.with_fields(**{s: u0[i] for i, s in enumerate(model.species)})
     for key, text in stage.get("initial", {}).items():
         u0[model.species_index(key)] = evaluate(text, current)
-    dt = stage.get("dt")
-    if dt is None:
-        dt = min(model.dt, 0.9 * max_stable_dt(model, domain, params))
-    dt = float(dt)
-    if "steps" in stage:
-        steps = int(stage["steps"])
-    else:
-        steps = int(round(float(stage.get("time", model.t_end)) / dt))
+    given = stage.get("dt")
+    plan = plan_run(model, domain, params, scheme=str(stage.get("scheme", "euler")),
+                    dt=None if given is None else float(given),
+                    steps=int(stage["steps"]) if "steps" in stage else None,
+                    t_end=float(stage["time"]) if "time" in stage else None,
+                    unsafe=bool(stage.get("unsafe", False)), rtol=stage.get("rtol"),
+                    atol=stage.get("atol"))
+    dt, steps = plan.dt, plan.steps
     done = 0
 
     def chunk(n: int) -> None:
@@ -191,7 +191,7 @@ def _simulate_stage(stage, mesh: Mesh, spec, stage_dir: Path, progress: bool, pi
 
     sol = simulate(model, domain, u0, params, steps=steps, dt=dt, seed=seed, progress=progress,
                    unsafe=bool(stage.get("unsafe", False)),
-                   scheme=str(stage.get("scheme", "euler")), rtol=stage.get("rtol"),
+                   scheme=plan.scheme, rtol=stage.get("rtol"),
                    atol=stage.get("atol"), on_chunk=None if share is None else chunk)
     write_npz(stage_dir / "state.npz", {s: sol.state[i] for i, s in enumerate(model.species)})
     show = stage.get("show", model.display_species)

@@ -26,9 +26,9 @@ from morphogen.models.model import Model
 from morphogen.patterns.classify import classify
 from morphogen.patterns.descriptors import NAMES, describe_batch
 from morphogen.patterns.watch import simulate_watched
-from morphogen.solvers.auto import population_scheme
+from morphogen.runs.policy import RunPlan, resolve_run
 from morphogen.solvers.stability import grid_scale, grid_scale_dominated, observed_scale
-from morphogen.solvers.step import batch_params, check_stability
+from morphogen.solvers.step import batch_params
 from morphogen.util.io import write_atomic
 
 
@@ -86,6 +86,34 @@ class Atlas:
     dt: float = 0.0
 
 
+def atlas_batch(model: Model, domain: Any, x: Axis, y: Axis,
+                params: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The atlas's parameter values (its axes at 0) and its batch: every parameter with a
+    leading axis of ``NY · NX`` members, the axes' values laid out row-major."""
+    if x.name == y.name:
+        raise MorphogenError(f"the two atlas axes must be different parameters, both are {x.name}")
+    values = model.parameters({**(params or {}), x.name: 0.0, y.name: 0.0})
+    base = resolve_params(model, domain, values)
+    batch = batch_params(base, len(y.values) * len(x.values), batched=())
+    xx, yy = np.meshgrid(x.values, y.values)
+    real = np.dtype(jnp.result_type(float))  # float32, or float64 in JAX's x64 mode
+    batch[x.name] = np.asarray(xx.reshape(-1), real)
+    batch[y.name] = np.asarray(yy.reshape(-1), real)
+    return values, batch
+
+
+def plan_atlas(model: Model, domain: Any, x: Axis, y: Axis, *,
+               params: dict[str, Any] | None = None, scheme: str = "euler",
+               dt: float | None = None, steps: int | None = None, time: float | None = None,
+               unsafe: bool = False) -> RunPlan:
+    """The run policy's scheme, ``dt`` and steps for an atlas
+    (:func:`morphogen.runs.policy.resolve_run` over every member: the model's ``dt`` within
+    the smallest member limit, ``auto`` resolved on the whole batch)."""
+    _, batch = atlas_batch(model, domain, x, y, params)
+    return resolve_run(model, domain, batch, scheme=scheme, dt=dt, steps=steps, t_end=time,
+                       unsafe=unsafe, batched=True, where="the atlas")
+
+
 def compute_atlas(
     model: Model,
     domain: Any,
@@ -114,23 +142,15 @@ def compute_atlas(
             (see :func:`morphogen.patterns.watch.simulate_watched`).
         options: passed to :func:`morphogen.engine.simulate.simulate_batch` (``noise``, ``clamp``).
     """
-    if x.name == y.name:
-        raise MorphogenError(f"the two atlas axes must be different parameters, both are {x.name}")
-    values = model.parameters({**(params or {}), x.name: 0.0, y.name: 0.0})
-    base = resolve_params(model, domain, values)
+    values, batch = atlas_batch(model, domain, x, y, params)
     ny, nx = len(y.values), len(x.values)
-    batch = batch_params(base, ny * nx, batched=())
-    xx, yy = np.meshgrid(x.values, y.values)
-    real = np.dtype(jnp.result_type(float))  # float32, or float64 in JAX's x64 mode
-    batch[x.name] = np.asarray(xx.reshape(-1), real)
-    batch[y.name] = np.asarray(yy.reshape(-1), real)
     sample = dict(values)
     sample.update({x.name: float(x.values.mean()), y.name: float(y.values.mean())})
     u0 = make_initial(init or model.init, model, domain, sample, seed=seed)
     u0 = np.broadcast_to(u0, (ny * nx, *u0.shape))
-    scheme = population_scheme(scheme, model, domain, batch, batched=True, where="the atlas")
-    if not unsafe:
-        check_stability(model, domain, batch, dt, scheme, batched=True)
+    # the run policy: auto resolved over the whole batch, dt checked against every member
+    scheme = resolve_run(model, domain, batch, scheme=scheme, dt=dt, steps=steps,
+                         unsafe=unsafe, batched=True, where="the atlas").scheme
     shape = (ny, nx)
     snaps = None
     if watch is None:

@@ -13,9 +13,9 @@ from __future__ import annotations
 from typing import Any
 
 from morphogen.models.model import Model, Params
-from morphogen.solvers.policy import RunPlan, plan_run, step_count
+from morphogen.solvers.policy import RunPlan, default_dt, plan_run, scheme_limit, step_count
 
-__all__ = ["RunPlan", "resolve_run", "step_count"]
+__all__ = ["RunPlan", "default_dt", "resolve_run", "scheme_limit", "step_count"]
 
 
 def resolve_run(
@@ -31,6 +31,7 @@ def resolve_run(
     rtol: float | None = None,
     atol: float | None = None,
     batched: bool = False,
+    population: bool = False,
     where: str = "search",
 ) -> RunPlan:
     """The run's :class:`~morphogen.solvers.policy.RunPlan` (scheme, dt, steps, t_end, limit,
@@ -38,4 +39,4 @@ def resolve_run(
     :func:`morphogen.solvers.policy.plan_run` for the rule and its errors."""
     return plan_run(model, domain, params, scheme=scheme or "euler", dt=dt, steps=steps,
                     t_end=t_end, unsafe=unsafe, rtol=rtol, atol=atol, batched=batched,
-                    where=where)
+                    population=population, where=where)

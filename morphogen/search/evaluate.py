@@ -24,7 +24,7 @@ bit-identical results.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
 from typing import Any
 
@@ -37,11 +37,11 @@ from morphogen.engine.fields import resolve_params
 from morphogen.engine.simulate import integrate
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model
+from morphogen.runs.policy import resolve_run
 from morphogen.search import fitness as fit
 from morphogen.search.genes import Gene, check_genes
 from morphogen.search.networks.cluster import cluster_head_fitness
-from morphogen.solvers.auto import population_scheme
-from morphogen.solvers.step import check_stability, make_step, max_stable_dt
+from morphogen.solvers.step import make_step, max_stable_dt
 
 FITNESS_KINDS = ("dirichlet", "target", "cluster", "user")
 CHUNK = 250
@@ -65,8 +65,9 @@ class Problem:
         size, dx, boundary, stencil: the grid (:class:`morphogen.domains.grid.Grid`).
         dt, steps, scheme: time stepping (``scheme`` any fixed-step scheme or ``auto``, chosen
             once from the base parameters; ``adaptive`` is refused, since the population
-            advances with one ``dt``); ``clamp`` is ``"model"`` (the model's own bounds),
-            ``None`` or ``[lo, hi]`` (Skaggs §3.2 clamps to ``[0, 5]``).
+            advances with one ``dt``); :func:`policy_problem` fills ``dt`` and ``steps`` from
+            the run policy where the user gave none; ``clamp`` is ``"model"`` (the model's own
+            bounds), ``None`` or ``[lo, hi]`` (Skaggs §3.2 clamps to ``[0, 5]``).
         seed, init, init_options: the initial condition
             (:func:`morphogen.engine.initial.make_initial`); every individual starts from the same
             one (up to its own ground state).
@@ -128,6 +129,30 @@ class Problem:
         return tuple(float(v) for v in value) if value is not None else None
 
 
+def problem_base(problem: Problem, model: Model | None = None
+                 ) -> tuple[Model, Grid, dict[str, Any]]:
+    """The problem's model, grid and base parameters (genes at their fixed values)."""
+    model = load_problem_model(problem) if model is None else model
+    domain = Grid(problem.size, problem.dx, problem.boundary, problem.stencil)
+    domain.boundaries(model.species)
+    values = model.parameters(dict(problem.params), preset=problem.preset)
+    return model, domain, resolve_params(model, domain, values)
+
+
+def policy_problem(problem: Problem, *, dt: float | None = None, steps: int | None = None,
+                   time: float | None = None, model: Model | None = None) -> Problem:
+    """``problem`` with the ``dt`` and ``steps`` the run policy gives for what the user gave
+    (:func:`morphogen.runs.policy.resolve_run` on the base parameters, as a population: the
+    model's ``dt`` within the scheme's limit, a given ``dt`` checked against it, ``steps`` from
+    ``time`` or the model's ``t_end``): the search's door to the policy every front end uses."""
+    from morphogen.runs.policy import resolve_run
+
+    model, domain, base = problem_base(problem, model)
+    plan = resolve_run(model, domain, base, scheme=problem.scheme, dt=dt, steps=steps,
+                       t_end=time, population=True)
+    return replace(problem, dt=plan.dt, steps=plan.steps)
+
+
 def load_problem_model(problem: Problem) -> Model:
     """The problem's model: parsed from the saved source when there is one."""
     if problem.model_source is not None:
@@ -166,12 +191,10 @@ class Evaluator:
         self.batch_size = batch_size
         self.model = load_problem_model(problem) if model is None else model
         check_genes(problem.genes, list(self.model.params))
-        self.domain = Grid(problem.size, problem.dx, problem.boundary, problem.stencil)
-        self.domain.boundaries(self.model.species)
-        values = self.model.parameters(dict(problem.params), preset=problem.preset)
-        self.base = resolve_params(self.model, self.domain, values)
-        self.scheme = population_scheme(problem.scheme, self.model, self.domain, self.base)
-        check_stability(self.model, self.domain, self.base, problem.dt, self.scheme)
+        _, self.domain, self.base = problem_base(problem, self.model)
+        # the run policy: auto resolved once for the population, dt checked against its limit
+        self.scheme = resolve_run(self.model, self.domain, self.base, scheme=problem.scheme,
+                                  dt=problem.dt, steps=problem.steps, population=True).scheme
         self.display = self.model.species_index(self.model.display_species)
         self._step = make_step(self.model, self.domain, scheme=self.scheme,
                                clamp=problem.clamp_bounds(self.model))

@@ -12,7 +12,8 @@ below ``runs/``) — so the same settings give the same run everywhere. The rule
    schemes.
 2. **Limit.** ``limit = max_stable_dt(model, domain, params, scheme)``
    (:func:`morphogen.solvers.step.max_stable_dt`: each scheme's own limit, with its margin;
-   ``inf`` for the error-controlled schemes).
+   ``inf`` for the error-controlled schemes), of the parameters as the engine will hold them
+   (:func:`scheme_limit`), so a step at the limit passes the engine's check.
 3. **Step.** A given ``dt`` is used as given; above ``limit`` it is refused with
    :class:`~morphogen.errors.UnstableTimeStepError` (one line naming the limit) unless
    ``unsafe``. Without one,
@@ -82,22 +83,39 @@ def step_count(t_end: float, dt: float) -> int:
 
 def resolve_scheme(model: Model, domain: Domain, params: Params, scheme: str = "euler", *,
                    rtol: float | None = None, atol: float | None = None,
-                   batched: bool = False, where: str = "search") -> str:
-    """``scheme`` with ``auto`` resolved (step 1 of :func:`plan_run`); ``batched`` resolves it
-    for a population (and refuses the error-controlled schemes, naming ``where``)."""
+                   batched: bool = False, population: bool = False,
+                   where: str = "search") -> str:
+    """``scheme`` with ``auto`` resolved (step 1 of :func:`plan_run`); for a ``population`` (or
+    ``batched`` parameters) as a population advances (the error-controlled schemes refused,
+    naming ``where``)."""
     from morphogen.solvers.auto import (
         choose_error_controlled,
         choose_scheme,
         population_scheme,
     )
 
-    if batched:
-        return population_scheme(scheme, model, domain, params, batched=True, where=where)
+    if batched or population:
+        return population_scheme(scheme, model, domain, params, batched=batched, where=where)
     if scheme != "auto":
         return scheme
     if rtol is not None or atol is not None:
         return choose_error_controlled(model, domain, params)
     return choose_scheme(model, domain, params)
+
+
+def scheme_limit(model: Model, domain: Domain, params: Params, scheme: str, *,
+                 batched: bool = False) -> float:
+    """:func:`morphogen.solvers.step.max_stable_dt` of ``params`` cast as the engine casts them
+    (``jnp.result_type(float)``: float32 unless x64 is on), so that a step at the limit passes
+    the engine's own check bit for bit (a limit from float64 parameters can sit one float32
+    rounding above it)."""
+    import jax.numpy as jnp
+
+    from morphogen.solvers.step import max_stable_dt
+
+    dtype = jnp.result_type(float)
+    cast = {k: jnp.asarray(v, dtype) for k, v in params.items()}
+    return float(max_stable_dt(model, domain, cast, scheme, batched=batched))
 
 
 def default_dt(model: Model, scheme: str, limit: float) -> tuple[float, str]:
@@ -124,6 +142,7 @@ def plan_run(
     rtol: float | None = None,
     atol: float | None = None,
     batched: bool = False,
+    population: bool = False,
     where: str = "search",
 ) -> RunPlan:
     """The concrete scheme, ``dt``, steps and end time of a run (the module's rule).
@@ -135,16 +154,16 @@ def plan_run(
         dt, steps, t_end: what the user gave; ``None`` for what they did not. ``steps`` wins
             over ``t_end``; without either the model's ``t_end`` is the end time.
         unsafe: run a given ``dt`` above the limit.
+        population: the run advances a population in lock-step (search, atlas): the scheme is
+            one a population can take; implied by ``batched``.
 
     Raises:
         UnstableTimeStepError: a given ``dt`` above the limit, without ``unsafe``.
         MorphogenError: ``dt``, ``steps`` or ``t_end`` not positive and finite.
     """
-    from morphogen.solvers.step import max_stable_dt
-
     scheme = resolve_scheme(model, domain, params, scheme, rtol=rtol, atol=atol,
-                            batched=batched, where=where)
-    limit = float(max_stable_dt(model, domain, params, scheme, batched=batched))
+                            batched=batched, population=population, where=where)
+    limit = scheme_limit(model, domain, params, scheme, batched=batched)
     if dt is not None:
         dt = float(dt)
         if not (math.isfinite(dt) and dt > 0):

@@ -30,8 +30,8 @@ import numpy as np
 from morphogen.engine.initial import make_initial
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model
-from morphogen.solvers.registry import LIVE, SCHEMES
-from morphogen.solvers.step import max_stable_dt
+from morphogen.runs.policy import default_dt, scheme_limit
+from morphogen.solvers.registry import LIVE
 from morphogen.web.brush import brush_values
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.engines import Engine, engine_for, pixels
@@ -403,23 +403,24 @@ class LiveSim:
         """The scheme's ``dt`` limit for the current parameters and maps, computed once per
         change of them (it linearises about the ground state: :mod:`morphogen.web.engines`)."""
         if self.limit is None:
-            self.limit = max_stable_dt(self.engine.model, self.engine.grid, self._params(),
-                                       self.scheme)
+            self.limit = scheme_limit(self.engine.model, self.engine.grid, self._params(),
+                                      self.scheme)
         return self.limit
 
     def _default_dt(self) -> float:
-        """The model's suggested ``dt``, lowered below the explicit stability limit if needed;
-        a scheme that treats diffusion implicitly runs at its own stable step (95 % of it)."""
-        if SCHEMES[self.scheme].implicit_diffusion:
-            return float(0.95 * self._dt_max())
-        return float(min(self.engine.model.dt, 0.95 * self._dt_max()))
+        """The run policy's step for the current scheme, parameters and maps
+        (:func:`morphogen.runs.policy.resolve_run`: the model's ``dt`` within an explicit
+        scheme's limit, the limit of a scheme that treats diffusion implicitly), the same as
+        the command line's."""
+        return default_dt(self.engine.model, self.scheme, self._dt_max())[0]
 
     def _fit_dt(self) -> list[str]:
-        """Keep ``dt`` below the stability limit after a parameter change: lowered to 95 % of
-        the limit while the chosen ``dt`` is above it, back to the chosen one once it fits."""
+        """Keep ``dt`` below the stability limit after a parameter change: the policy's step
+        (:meth:`_default_dt`) while the chosen ``dt`` is above the limit, back to the chosen
+        one once it fits."""
         dt_max = self._dt_max()
         before = self.dt
-        self.dt = self.chosen_dt if self.chosen_dt <= dt_max else 0.95 * dt_max
+        self.dt = self.chosen_dt if self.chosen_dt <= dt_max else self._default_dt()
         if self.dt < before:
             return [f"dt lowered to {self.dt:.4g} to stay below the stability limit {dt_max:.4g}"]
         if self.dt > before:
