@@ -162,6 +162,34 @@ def fitness_figure(root: Path, number: int) -> None:
     fig.savefig(_png(f"fitness_exp{number}"))
 
 
+JUMP = 100.0
+"""A single-generation gain of the best fitness at least this large is a jump."""
+
+
+def slope_or_jumps(best: np.ndarray) -> dict[str, float]:
+    """The seed's headline as numbers (§4: "gentle slopes" in Fig. 3 against "punctuated
+    jumps" in Fig. 5), from a run's best fitness per generation ``best`` ``(G,)``:
+
+    - ``jump_share``: the share of the run's total gain ``best[-1] - best[0]`` made in
+      single-generation gains ``>= JUMP`` (0 for a gentle slope, 1 for pure jumps; NaN without a
+      gain);
+    - ``longest_plateau``: the longest stretch of generations before the last jump in which
+      the best fitness did not rise by more than 1 (a jump after a long wait is punctuated);
+    - ``jumps``: how many single-generation gains ``>= JUMP``.
+    """
+    best = np.asarray(best, np.float64)
+    gains = np.diff(best)
+    total = best[-1] - best[0]
+    jumps = np.flatnonzero(gains >= JUMP)
+    share = float(gains[jumps].sum() / total) if total > 0 else float("nan")
+    plateau, run = 0, 0
+    for g in gains[: jumps[-1]] if jumps.size else []:
+        run = run + 1 if g <= 1.0 else 0
+        plateau = max(plateau, run)
+    return {"jump_share": share, "longest_plateau": plateau, "jumps": int(jumps.size),
+            "gain": float(total)}
+
+
 def best_genome(root: Path, number: int) -> tuple[Genome, float, str]:
     """The fittest genome of the experiment's runs' last generations."""
     best = None
@@ -230,6 +258,9 @@ def make_figures(root: Path, experiments: tuple[int, ...] = (1, 2)) -> None:
     experiments = tuple(n for n in experiments if finished(root, n))
     for number in experiments:
         fitness_figure(root, number)
+        for folder in finished(root, number):
+            best = load_state(folder / "state.npz")[1].max(axis=1)
+            print(f"{folder.name}: {slope_or_jumps(best)}")
     spec = table2_spec()
     hand = pattern_figure(table2_genome(spec), spec, "pattern_table2", "hand-made (Table 2)")
     print(f"hand-made Table-2 network: fitness {hand:.2f}")
