@@ -34,6 +34,9 @@ COMMANDS: dict[str, Command] = {
     "morphogen.cli.simulate_cmd": Command("simulate", "simulate a model on a grid or mesh"),
     "morphogen.cli.atlas_cmd": Command(
         "atlas", "map a pattern over two parameters in one batched run"),
+    "morphogen.cli.analyse_cmd": Command(
+        "analyse",
+        "Turing analysis: fixed points, dispersion relation, unstable band, wavelength"),
     "morphogen.cli.serve_cmd": Command("serve", "start the web app"),
     "morphogen.cli.evolve_cmd": Command(
         "evolve", "search model parameters with a genetic algorithm, CMA-ES or gradient ascent"),

@@ -87,7 +87,8 @@ class FixedPoint:
 class Analysis:
     """:func:`analyse`'s result. ``curves`` (not in :meth:`to_json`'s summary unless asked)
     hold the dispersion relation for plotting: ``q`` ``(Q,)`` and per fixed point ``sigma``
-    ``(Q,)``; ``grid_kappa2`` ``(K,)`` and per fixed point ``grid_sigma`` ``(K,)``."""
+    ``(Q,)``; ``grid_kappa2`` ``(K,)``, the modes' true wavenumbers ``grid_q = 2π / λ``
+    ``(K,)`` and per fixed point ``grid_sigma`` ``(K,)``."""
 
     model: str
     species: tuple[str, ...]
@@ -198,7 +199,8 @@ def analyse(model: Model, params: Mapping[str, Any] | None = None, *,
               "boundary": boundary, "modes": len(modes.kappa2)},
         fixed_points=tuple(f[0] for f in found),
         curves={"q": q, "sigma": np.stack([f[1] for f in found]),
-                "grid_kappa2": modes.kappa2, "grid_sigma": np.stack([f[2] for f in found])})
+                "grid_kappa2": modes.kappa2, "grid_q": 2 * np.pi / (modes.wavelength * dx),
+                "grid_sigma": np.stack([f[2] for f in found])})
 
 
 def _one(model: Model, p64: dict, u: np.ndarray, modes: Any, q: np.ndarray, d: np.ndarray,
