@@ -63,7 +63,7 @@ def test_npz_and_image_files(tmp_path):
     u = make_initial(str(tmp_path / "half.png"), GS, GRID, P)
     assert u[1, 0, 0] == 0.0 and u[1, 0, -1] == pytest.approx(0.25)
     np.savez(tmp_path / "bad.npz", u=state[0])
-    with pytest.raises(MorphogenError, match="lacks arrays"):
+    with pytest.raises(MorphogenError, match="has no array .v."):
         make_initial(str(tmp_path / "bad.npz"), GS, GRID, P)
     with pytest.raises(MorphogenError, match="unknown initial"):
         make_initial("sprinkles", GS, GRID, P)

@@ -6,7 +6,6 @@ import argparse
 from pathlib import Path
 
 from morphogen.cli import options
-from morphogen.errors import MorphogenError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -33,21 +32,20 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from morphogen.cli.simulate_cmd import config_from_args
-    from morphogen.runs.web_page import export_page
+    from morphogen.runs.web_page import check_exportable, export_page
 
     is_run = Path(args.source).suffix.lower() == ".json"
     args.config, args.model = (args.source, None) if is_run else (None, args.source)
     config = config_from_args(args)
     state = None
     if args.state:
+        from morphogen.engine.initial import load_state
         from morphogen.runs.prepare import load_config_model
 
+        # checked by its header against the run's species and grid before anything is read
+        check_exportable(config)
         species = load_config_model(config).species
-        with np.load(args.state) as data:
-            missing = [s for s in species if s not in data.files]
-            if missing:
-                raise MorphogenError(f"{args.state} has no field for species {missing[0]}")
-            state = np.stack([data[s] for s in species]).astype(np.float32)
+        state = load_state(args.state, species, tuple(config.size)).astype(np.float32)
     page = export_page(config, state)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -34,7 +34,7 @@ import numpy as np
 
 from morphogen.errors import MorphogenError
 from morphogen.models.model import INITIAL_NAMES, Model, Params
-from morphogen.util.io import check_image, check_input_file
+from morphogen.util.io import check_image
 
 Init = Callable[..., np.ndarray]
 MAX_BLOB_WORK = 5e8
@@ -281,44 +281,19 @@ def _npz(model, domain, g, e, rng, path: str | Path = ""):
     return load_state(path, model.species, tuple(domain.spatial_shape))
 
 
-def load_state(path: str | Path, species: tuple[str, ...],
-               shape: tuple[int, ...]) -> np.ndarray:
-    """A state file (``.npz``, one array per species) as float64 ``(S, *shape)``.
+def load_state(path: str | Path | bytes, species: tuple[str, ...],
+               shape: tuple[int, ...], what: str = "state file") -> np.ndarray:
+    """A state file (``.npz``, one array per species; a path or its bytes) as float64
+    ``(S, *shape)``.
 
-    Only numeric, finite arrays of exactly ``shape`` are accepted; no pickles, and no member
-    larger on disk than such an array, so a hostile file cannot allocate more than the run.
+    Read by the one checked reader (:func:`morphogen.util.npz.read_npz`): each species' array
+    must announce, in its header, a numeric dtype and exactly ``shape`` before anything is
+    allocated for it (a 482-byte file announcing 10¹² elements is refused at once), no pickles,
+    and finite values; other members are ignored.
     """
-    import zipfile
+    from morphogen.util.npz import read_npz
 
-    limit = 16 * math.prod(shape) + 4096
-    check_input_file(path, "state file", limit=len(species) * limit + 2**20)
-    try:
-        data = np.load(path, allow_pickle=False)
-        if not isinstance(data, np.lib.npyio.NpzFile):
-            raise MorphogenError(f"{path} is a single array, not an .npz of named arrays")
-        with data:
-            missing = [s for s in species if s not in data.files]
-            if missing:
-                raise MorphogenError(
-                    f"{path} lacks arrays for species {missing}; it has {sorted(data.files)}"
-                )
-            for s in species:
-                if data.zip.getinfo(f"{s}.npy").file_size > limit:
-                    raise MorphogenError(f"{path}: array {s!r} is larger than the domain")
-            arrays = [data[s] for s in species]
-    except MorphogenError:
-        raise
-    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
-        raise MorphogenError(f"cannot read {path} as a state file: {exc}") from None
-    for s, a in zip(species, arrays, strict=True):
-        if not isinstance(a, np.ndarray):
-            raise MorphogenError(f"{path}: member {s!r} is not a NumPy array")
-        if a.dtype.kind not in "biuf":
-            raise MorphogenError(f"{path}: array {s!r} holds {a.dtype} values, not numbers")
-        if a.shape != shape:
-            raise MorphogenError(
-                f"{path}: array {s!r} has shape {a.shape}, the domain needs {shape}"
-            )
-        if not np.isfinite(a).all():
-            raise MorphogenError(f"{path}: array {s!r} holds NaN or infinite values")
-    return np.stack([a.astype(np.float64) for a in arrays])
+    arrays = read_npz(path, what, keys=species, shapes=tuple(shape), finite=True,
+                      max_elements=len(species) * math.prod(shape),
+                      max_bytes=len(species) * (16 * math.prod(shape) + 4096) + 2**20)
+    return np.stack([arrays[s].astype(np.float64) for s in species])

@@ -296,7 +296,8 @@ def _cached(stage_dir: Path, stage: Mapping[str, Any]) -> dict[str, np.ndarray] 
             json.dumps(stage))
         if not same:
             return None
-        with np.load(stage_dir / "fields.npz") as data:
-            return {k: data[k] for k in data.files}
-    except (OSError, ValueError):
-        return None
+        from morphogen.util.npz import read_npz
+
+        return read_npz(stage_dir / "fields.npz", "stage fields")  # the one checked reader
+    except (OSError, ValueError, MorphogenError):
+        return None  # a damaged stage is run again

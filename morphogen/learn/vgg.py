@@ -84,17 +84,15 @@ def _read_ckpt(path: Path) -> list[tuple[np.ndarray, np.ndarray]]:
 
 
 def _read_npz(path: Path) -> list[tuple[np.ndarray, np.ndarray]]:
-    with np.load(path, allow_pickle=False) as data:
-        try:
-            return [
-                (np.asarray(data[f"conv{i}_kernel"]), np.asarray(data[f"conv{i}_bias"]))
-                for i in range(N_CONVS)
-            ]
-        except KeyError as exc:
-            raise MorphogenError(
-                f"{path} lacks {exc.args[0]}; a VGG16 .npz needs conv0_kernel/conv0_bias .. "
-                "conv10_kernel/conv10_bias"
-            ) from None
+    """The kernels and biases, through the one checked reader: real numbers, a (3, 3, C_in,
+    C_out) kernel and a vector bias announced by each header before any is read."""
+    from morphogen.util.npz import read_npz
+
+    keys = [f"conv{i}_{part}" for i in range(N_CONVS) for part in ("kernel", "bias")]
+    shapes = {k: (3, 3, None, None) if k.endswith("kernel") else (None,) for k in keys}
+    data = read_npz(path, "VGG16 weight file", keys=keys, shapes=shapes, kinds="f",
+                    max_elements=2**25)
+    return [(data[f"conv{i}_kernel"], data[f"conv{i}_bias"]) for i in range(N_CONVS)]
 
 
 def load_vgg_weights(path: str | Path) -> list[tuple[np.ndarray, np.ndarray]]:

@@ -40,7 +40,6 @@ constant or blank field.
 from __future__ import annotations
 
 import json
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -168,10 +167,11 @@ def species_beside(path: Path) -> list[str]:
         if isinstance(stages, list) else []
     if runs and isinstance(runs[-1].get("fields"), list):
         return [str(n) for n in runs[-1]["fields"]]
-    try:
-        with np.load(path.parent / "state.npz") as arrays:
-            return list(arrays.files)
-    except (OSError, ValueError, zipfile.BadZipFile):
+    from morphogen.util.npz import npz_members
+
+    try:  # the headers only, through the one checked reader
+        return list(npz_members(path.parent / "state.npz", "mesh run state"))
+    except MorphogenError:
         return []
 
 

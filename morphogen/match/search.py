@@ -124,8 +124,12 @@ class Journal:
             return self.memory[key]
         path = self.directory / f"{key}.npz" if self.directory else None
         if path is not None and path.is_file():
-            with np.load(path, allow_pickle=False) as data:
-                self.memory[key] = {k: data[k] for k in data.files}
+            from morphogen.util.npz import read_npz
+
+            try:  # the one checked reader; a damaged record is scored again
+                self.memory[key] = read_npz(path, "match journal record", kinds="biufU")
+            except MorphogenError:
+                return None
             return self.memory[key]
         return None
 

@@ -267,69 +267,22 @@ def save_neural_model(
 
 
 def read_npz(path: str | Path, what: str) -> dict[str, np.ndarray]:
-    """Every array of an ``.npz`` file, without unpickling; any damage is one line.
+    """Every array of an ``.npz`` file, through the one checked reader
+    (:func:`morphogen.util.npz.read_npz`): no pickles, every header checked before its data is
+    read (an entry announcing more than it holds, or more than memory allows, is refused);
+    any damage is one line.
 
     Raises:
-        MorphogenError: the file is missing, not a zip archive (truncated, corrupt), or holds
-            something that is not a plain array.
+        MorphogenError: the file is missing, not a regular file, not a zip archive (truncated,
+            corrupt), or holds something that is not a plain array.
     """
-    import zipfile
-    import zlib
-
-    path = Path(path)
-    if not path.is_file():
-        raise MorphogenError(f"{what} {path} does not exist (or is not a regular file)")
-    try:
-        with open(path, "rb") as fh:
-            if not zipfile.is_zipfile(fh):
-                raise MorphogenError(f"cannot read {what} {path}: not an .npz file (no "
-                                     "complete zip archive: truncated or damaged?)")
-            _check_sizes(fh, f"{what} {path}")
-            fh.seek(0)
-            with np.load(fh, allow_pickle=False) as data:
-                return {k: np.asarray(data[k]) for k in data.files}
-    except MorphogenError:
-        raise
-    except (OSError, ValueError, EOFError, KeyError, TypeError, AttributeError,
-            NotImplementedError, zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error) as exc:
-        reason = " ".join(str(exc).split())[:160] or type(exc).__name__
-        if "pickle" in reason:
-            reason = "it holds Python objects, which are never loaded (arrays of numbers only)"
-        raise MorphogenError(f"cannot read {what} {path}: {reason}") from None
-
-
-def _check_sizes(fh: Any, where: str) -> None:
-    """Refuse an archive that unpacks to more than the memory guard allows, or an array whose
-    header announces more data than its entry holds (numpy would allocate the announced size
-    before reading)."""
-    import math
-    import zipfile
-
-    from numpy.lib import format as npy
-
     from morphogen.util.guard import LIMITS
+    from morphogen.util.npz import read_npz as read_checked
 
-    with zipfile.ZipFile(fh) as archive:
-        infos = archive.infolist()
-        total = sum(info.file_size for info in infos)
-        if total > LIMITS.memory_bytes:
-            raise MorphogenError(f"cannot read {where}: it unpacks to {total / 2**30:.3g} GiB, "
-                                 f"more than the limit of {LIMITS.memory_bytes / 2**30:g} GiB")
-        for info in infos:
-            with archive.open(info) as member:
-                if member.read(6) != npy.MAGIC_PREFIX:
-                    continue  # not an array: np.load refuses it
-                major = member.read(2)[:1]
-                if major not in (b"\x01", b"\x02", b"\x03"):
-                    continue  # an unknown version: np.load refuses it
-                read_header = npy.read_array_header_1_0 if major == b"\x01" else \
-                    npy.read_array_header_2_0  # 3.0 differs only in the header's encoding
-                shape, _, dtype = read_header(member)
-                if math.prod(shape) * dtype.itemsize > info.file_size:
-                    raise MorphogenError(
-                        f"cannot read {where}: entry {info.filename!r} announces a {shape} "
-                        f"array but holds {info.file_size} bytes (truncated or damaged)"
-                    )
+    if not Path(path).exists():
+        raise MorphogenError(f"{what} {path} does not exist")
+    limit = int(LIMITS.memory_bytes)
+    return read_checked(path, what, kinds="biufcSU", max_elements=limit // 4, max_bytes=limit)
 
 
 def read_neural_file(path: str | Path) -> tuple[NeuralConfig, dict[str, np.ndarray], dict]:

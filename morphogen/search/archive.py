@@ -342,15 +342,15 @@ def _pack(arrays: dict[str, np.ndarray]) -> bytes:
 
 
 def _unpack(blob: bytes) -> dict[str, np.ndarray]:
-    import zipfile
+    from morphogen.util.npz import read_npz
 
     try:
-        with np.load(io.BytesIO(blob), allow_pickle=False) as data:
-            return {k: data[k] for k in data.files}
-    except (OSError, ValueError, EOFError, KeyError, TypeError, AttributeError,
-            zipfile.BadZipFile):
+        if not isinstance(blob, bytes | bytearray | memoryview):
+            raise MorphogenError(f"a {type(blob).__name__} where an .npz was stored")
+        return read_npz(bytes(blob), "strategy state")
+    except MorphogenError as exc:
         raise MorphogenError(
-            "the archive's saved strategy state is damaged; the run cannot be resumed "
+            f"the archive's saved strategy state is damaged ({exc}); the run cannot be resumed "
             "from its last generation"
         ) from None
 

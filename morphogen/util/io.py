@@ -28,6 +28,16 @@ MAX_IMAGE_PIXELS = 40_000_000
 """Largest image accepted as input (width x height from its header, checked before decoding)."""
 
 
+def file_kind(mode: int) -> str:
+    """What a file of ``st_mode`` ``mode`` is, in words (``"a FIFO (named pipe)"``)."""
+    for test, words in ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                        (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                        (stat.S_ISSOCK, "a socket"), (stat.S_ISREG, "a regular file")):
+        if test(mode):
+            return words
+    return "not a regular file"
+
+
 def check_input_file(path: str | Path, what: str, limit: float = MAX_INPUT_BYTES) -> Path:
     """Check, reading nothing, that ``path`` is a regular file of at most ``limit`` bytes: a
     directory, a device (``/dev/zero``, ``/dev/urandom``), a FIFO or a socket would block or
@@ -42,9 +52,8 @@ def check_input_file(path: str | Path, what: str, limit: float = MAX_INPUT_BYTES
     if stat.S_ISDIR(info.st_mode):
         raise MorphogenError(f"{what} {path} is a directory, not a file")
     if not stat.S_ISREG(info.st_mode):
-        raise MorphogenError(
-            f"{what} {path} is not a regular file (a device, pipe or socket); give a file"
-        )
+        raise MorphogenError(f"{what} {path} is {file_kind(info.st_mode)}, not a regular file; "
+                             "give a file")
     if info.st_size > limit:
         raise MorphogenError(
             f"{what} {path} is {info.st_size:,} bytes, more than the limit of {int(limit):,}"
