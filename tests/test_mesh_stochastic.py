@@ -149,3 +149,35 @@ def test_flux_noise_amplitude_scales_as_omega_to_the_minus_half():
     slope = np.polyfit(np.log(omegas), np.log(sd), 1)[0]
     assert slope == pytest.approx(-0.5, abs=0.02)
     assert sd[0] > 0
+
+
+def test_increment_is_eq17_with_its_own_normals_and_its_mean_is_zero():
+    """One draw equals eq. 17 written out in NumPy (float64) with the same normals, row ``k`` of
+    ``normal(key, (3, F))`` on border ``k``: border ``k`` moves ``sqrt(sum_c |Z_kc| c_c dt /
+    Omega) N_k`` from corner ``k+2`` to corner ``k+1``; and over many draws the mean increment
+    is zero within its standard error while the variance is eq. 17's."""
+    mesh = lattice_mesh(10, 10, spacing=0.1, omega=1e3)
+    ops = mesh.ops
+    rng = np.random.default_rng(4)
+    u = jnp.asarray(rng.uniform(0.5, 2.0, (1, mesh.n_vertices)), jnp.float32)
+    bcs = mesh.boundaries(("u",))
+    key = jax.random.PRNGKey(11)
+    got = np.asarray(mesh.diffusion_noise(u, (D,), bcs, DT, key)[0], np.float64)
+    normal = np.asarray(jax.random.normal(jax.random.split(key, 1)[0], (3, len(ops.faces))),
+                        np.float64)
+    z = np.asarray(ops.flux_components(ops.face_tensor(D, 0.0, D, jnp.float32), jnp.float32),
+                   np.float64)
+    uf = np.maximum(np.asarray(u, np.float64)[0][ops.faces], 0.0)
+    eta = np.sqrt((np.abs(z) * uf[:, None, :]).sum(axis=2) * DT / 1e3) * normal.T  # (F, 3)
+    mass = np.zeros(mesh.n_vertices)
+    for k in range(3):
+        np.add.at(mass, ops.faces[:, (k + 1) % 3], eta[:, k])
+        np.add.at(mass, ops.faces[:, (k + 2) % 3], -eta[:, k])
+    expected = mass / mesh.areas
+    assert np.allclose(got, expected, rtol=1e-5, atol=1e-6 * np.abs(expected).max())
+
+    samples = _samples(mesh, u, n=4000)
+    predicted = _predicted_variance(mesh, u, 1e3)
+    standard_error = np.sqrt(predicted / len(samples))
+    assert np.all(np.abs(samples.mean(axis=0)) < 5 * standard_error)
+    assert np.mean(samples.var(axis=0)) == pytest.approx(np.mean(predicted), rel=0.05)
