@@ -150,7 +150,12 @@ def run(args: argparse.Namespace) -> int:
                     rounds=args.rounds, init=args.init, init_noise=args.init_noise,
                     stage2=args.stage2, reject_checkerboards=args.checkerboards == "invalid")
     check_cost(args, len(spec.species), ev.steps)
+    done = 0
     if args.resume:
+        # the saved state is read and checked whole before the record changes
+        if not (out / "state.npz").exists():
+            raise MorphogenError(f"nothing to resume in {out}: no state.npz")
+        done = completed(out, args.population)
         run_id, archive = record.resume(out, args.archive, args.generations)
     elif (out / "state.npz").exists() or (out / "config.json").exists():
         raise MorphogenError(f"{out} already holds a run; use --resume or another --out")
@@ -172,7 +177,6 @@ def run(args: argparse.Namespace) -> int:
         if args.executor == "auto" and not args.quiet:
             print(split_notice(evaluator.batches), flush=True)
     recorder = record.Recorder(archive, run_id, Path(out), spec, asdict(ev))
-    done = completed(out) if args.resume else 0
     bar = ProgressBar(max(args.generations - done, 0) * per_gen, enabled=not args.quiet,
                       unit="step", desc=args.mode)
     try:
@@ -189,6 +193,9 @@ def run(args: argparse.Namespace) -> int:
     write_atomic(Path(out) / "history.csv", lambda fh: fh.write(buf.getvalue().encode()))
     best = int(np.argmax(fitness))
     genome = type(pop)(*(x[best] for x in pop))
+    if not np.isfinite(fitness[best]):  # never a NaN in best.json
+        raise MorphogenError(f"the run's best fitness is {fitness[best]}; best.json is not "
+                             "written")
     write_json(Path(out) / "best.json", {"mode": args.mode, "fitness": float(fitness[best]),
                                          "reactions": describe(genome, spec)})
     if not args.quiet:

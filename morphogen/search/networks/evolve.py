@@ -310,13 +310,14 @@ def save_state(path: Path, pop: Genome, history: np.ndarray, generation: int,
     tmp.replace(path)
 
 
-def load_state(path: Path) -> tuple[Genome, np.ndarray, int, dict]:
-    """A run folder's ``state.npz``: population, fitness history, generations done, settings."""
-    import json
+def load_state(path: Path, population: int | None = None
+               ) -> tuple[Genome, np.ndarray, int, dict]:
+    """A run folder's ``state.npz``: population, fitness history, generations done, settings;
+    every part checked first (:func:`morphogen.search.networks.state_file.read_state`)."""
+    from morphogen.search.networks.state_file import read_state
 
-    with np.load(path) as data:
-        pop = Genome(*(jnp.asarray(data[f"arr_{i}"]) for i in range(5)))
-        return pop, data["history"], int(data["generation"]), json.loads(str(data["meta"]))
+    pop, history, done, meta = read_state(path, population)
+    return Genome(*(jnp.asarray(x) for x in pop)), history, done, meta
 
 
 def run(
@@ -390,10 +391,10 @@ def _jsonable(x: Any) -> Any:
     return x
 
 
-def completed(out: str | Path) -> int:
-    """Generations already saved in the run folder ``out`` (0 if none)."""
+def completed(out: str | Path, population: int | None = None) -> int:
+    """Generations already saved in the run folder ``out`` (0 if none); its ``state.npz``
+    checked whole (``population``: the run's ``P``)."""
     path = Path(out) / "state.npz"
-    if not path.exists():
+    if not path.exists() and not path.is_symlink():
         return 0
-    with np.load(path) as data:
-        return int(data["generation"])
+    return load_state(path, population)[2]
