@@ -29,10 +29,12 @@ demo: $(STAMP)
 flowers: $(STAMP)
 	$(BIN)/morphogen gallery flowers --out out/flowers
 
-# ruff, then the layer rule and the ban on import circles (pyproject.toml [tool.importlinter]).
+# ruff, then the layer rule and the ban on import circles (pyproject.toml [tool.importlinter]),
+# then the type check of the public modules ([tool.mypy]).
 lint: $(STAMP)
 	$(BIN)/ruff check morphogen tests bench fuzz
 	$(BIN)/lint-imports --no-cache
+	$(BIN)/mypy
 
 # Three workers on the two cores, a file each; each worker's XLA runs on one thread. Many tests
 # wait part of the time (on a browser, a server's job, Ray's workers, a subprocess), and a third

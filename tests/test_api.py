@@ -10,6 +10,7 @@ import importlib.util
 import pkgutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -26,6 +27,17 @@ def test_every_public_name_resolves_to_its_home():
         assert getattr(mg, name) is getattr(home, name), name
     with pytest.raises(AttributeError, match="no attribute 'simulat'"):
         mg.simulat  # noqa: B018
+
+
+def test_the_type_check_covers_every_module_behind_a_public_name():
+    """``make lint``'s mypy reads ``[tool.mypy] files``: each module defining a name of
+    ``mg.__all__`` is on it (and the package itself), nothing else, and ``py.typed`` ships."""
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    files = config["tool"]["mypy"]["files"]
+    homes = {m.replace(".", "/") + ".py" for m in mg._HOMES.values()}
+    assert sorted(files) == sorted(homes | {"morphogen/__init__.py"})
+    assert (ROOT / "morphogen" / "py.typed").is_file()
+    assert "py.typed" in config["tool"]["setuptools"]["package-data"]["morphogen"]
 
 
 def test_import_morphogen_loads_no_heavy_library():

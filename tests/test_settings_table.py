@@ -4,6 +4,7 @@ all follow from its rows, and the front ends agree on what they refuse."""
 from __future__ import annotations
 
 import argparse
+import ast
 import dataclasses
 import importlib
 import json
@@ -52,6 +53,27 @@ def test_every_row_is_a_schema_and_dataclass_field_with_its_default(row):
         assert getattr(made, row.name) == row.default == default(row.name)
     assert list(RunSchema.model_fields) == [s.name for s in SETTINGS]
     assert [f.name for f in dataclasses.fields(RunConfig)] == [s.name for s in SETTINGS]
+
+
+def _declared(cls: type) -> list[str]:
+    """The annotations of ``cls`` as written (``from __future__ import annotations`` keeps
+    them as text, normalised like :func:`_normal`)."""
+    return [f"{name}: {annotation}" for name, annotation in cls.__annotations__.items()]
+
+
+def _normal(text: str) -> str:
+    """A type written the way Python stores a postponed annotation (quotes, spacing)."""
+    return ast.unparse(ast.parse(text, mode="eval"))
+
+
+def test_the_static_dataclass_and_schema_declare_every_row_with_its_types():
+    """RunConfig and RunSchema are written out so a type checker sees their fields; each
+    annotation is its row's ``type`` (dataclass) and ``schema`` (pydantic) text. On failure the
+    expected lines are printed, ready to paste."""
+    want_config = [f"{s.name}: {_normal(s.type)}" for s in SETTINGS]
+    want_schema = [f"{s.name}: {_normal(s.schema)}" for s in SETTINGS]
+    assert _declared(RunConfig) == want_config, "\n".join(want_config)
+    assert _declared(RunSchema) == want_schema, "\n".join(want_schema)
 
 
 def test_mutable_defaults_are_not_shared():

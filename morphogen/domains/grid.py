@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, ClassVar
+from typing import Any, ClassVar, cast
 
 import jax.numpy as jnp
 import numpy as np
@@ -164,11 +164,16 @@ class Grid:
         """Whether the Laplacian is the pseudo-spectral one."""
         return self._stencil is None
 
+    @property
+    def _points(self) -> Stencil:
+        """The finite-difference stencil; only called where :attr:`is_spectral` is false."""
+        return cast(Stencil, self._stencil)
+
     def spectral_radius(self) -> float:
         """Largest eigenvalue of ``-Laplacian`` (unit diffusion), for the stability limit."""
         if self.is_spectral:
             return spectral.spectral_radius(self.shape, self.dx)
-        return self._stencil.spectral_radius / self.dx**2
+        return self._points.spectral_radius / self.dx**2
 
     @property
     def stochastic(self) -> bool:
@@ -183,14 +188,14 @@ class Grid:
     def symbol(self, *k: np.ndarray) -> np.ndarray:
         """Eigenvalue of the Laplacian on the Fourier mode with angular wavenumbers per cell
         ``k`` (one array per axis, in ``[-pi, pi]``), in units of ``1 / dx^2``."""
-        op = spectral.symbol if self.is_spectral else self._stencil.symbol
+        op = spectral.symbol if self.is_spectral else self._points.symbol
         return np.asarray(op(*k), np.float64) / self.dx**2
 
     def laplacian(self, f: Array, bc: Boundary) -> Array:
         """Discrete Laplacian of one field ``f`` (shape ``self.shape``)."""
         if self.is_spectral:
             return spectral.laplacian(f, self.dx)
-        return self._stencil.apply(self._neighbours(f, bc), self.dx)
+        return self._points.apply(self._neighbours(f, bc), self.dx)
 
     def diffuse(self, u: Array, coeffs: Sequence[Any], bcs: Sequence[Boundary]) -> Array:
         """``div(D_i grad u_i)`` for every species; ``u`` has shape ``(S, *shape)``.
@@ -219,12 +224,12 @@ class Grid:
         """Laplacian of every species of ``u`` (shape ``(S, *shape)``), padded alike."""
         if self.is_spectral:
             return spectral.laplacian(u, self.dx, self.ndim)
-        return self._stencil.apply(self._neighbours(u, bc), self.dx)
+        return self._points.apply(self._neighbours(u, bc), self.dx)
 
     def _neighbours(self, u: Array, bc: Boundary) -> Neighbours:
         """What the stencil reads: wrapped shifts on a torus where it takes them (fused by XLA,
         :func:`morphogen.domains.stencils.periodic`), else slices of the ghost-padded field."""
-        if bc.kind == "periodic" and self._stencil.shifts:
+        if bc.kind == "periodic" and self._points.shifts:
             return periodic(u, self.ndim)
         pad = ((0, 0),) * (u.ndim - self.ndim) + ((1, 1),) * self.ndim
         return padded(jnp.pad(u, pad, mode=_pad_mode(bc)), self.ndim)

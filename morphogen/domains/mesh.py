@@ -341,7 +341,8 @@ class Mesh:
             if bc.omega is None or (isinstance(d, int | float) and d == 0):
                 rows.append(jnp.zeros_like(u[i]))
                 continue
-            tensor = ops.face_tensor(*(d if isinstance(d, Tensor) else (d, 0.0, d)), u.dtype)
+            xx, xy, yy = d if isinstance(d, Tensor) else (d, 0.0, d)
+            tensor = ops.face_tensor(xx, xy, yy, u.dtype)
             rows.append(ops.langevin_increment(u[i], tensor, dt, bc.omega, keys[i]))
         return jnp.stack(rows)
 

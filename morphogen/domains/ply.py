@@ -74,7 +74,8 @@ def check_declared_sizes(path: Path) -> None:
     body = size - (head.find(b"\n", end) + 1)
     lines = head[:end].decode("ascii", "replace").splitlines()
     ascii_format = any(line.split()[:2] == ["format", "ascii"] for line in lines if line.strip())
-    needed, elements = 0, []
+    needed = 0
+    elements: list[list[Any]] = []  # [name, count, bytes per item]
     for line in lines:
         words = line.split()
         if len(words) == 3 and words[0] == "element" and words[2].isdigit():

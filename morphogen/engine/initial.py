@@ -165,11 +165,10 @@ def _blobs(model, domain, g, e, rng, count: int | None = None, radius: float | N
         raise MorphogenError(f"blob sigma must be a positive number of cells, got {sigma}")
     on_mesh = domain.kind == "mesh"
     n_cells = int(np.prod(domain.spatial_shape))
-    count = 12 if count is None and spacing is None else count
     if spacing is not None:
         count = max(1, round(blob_capacity(domain) / float(spacing) ** (2 if on_mesh else
                                                                        len(domain.spatial_shape))))
-    count = int(count)
+    count = 12 if count is None else int(count)
     if not 0 < count <= n_cells:
         raise MorphogenError(f"blob count must be between 1 and the {n_cells} cells, got {count}")
     if count * n_cells > MAX_BLOB_WORK:

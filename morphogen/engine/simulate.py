@@ -287,7 +287,7 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
     chunk = every or max(1, min(steps, 250))
     shots = Snapshots(max_snapshots, u) if every else None
     members = u.shape[0] if batched else None
-    checks = [BlowUp(model.species, members)]
+    checks: list[BlowUp | Divergence] = [BlowUp(model.species, members)]
     if not unsafe:
         checks.append(Divergence(
             model.species, members, observed_scale(u, model, p, batched),

@@ -168,7 +168,8 @@ def analyse(model: Model, params: Mapping[str, Any] | None = None, *,
     for name, value in params.items():
         if not np.all(np.isfinite(np.asarray(value, np.float64))):
             raise MorphogenError(f"parameter {name} = {value!r} is not a finite number")
-    shape = (int(size),) * 2 if np.ndim(size) == 0 else tuple(int(n) for n in size)
+    shape = tuple(int(n) for n in np.atleast_1d(size))
+    shape = shape * 2 if len(shape) == 1 else shape
     if boundary not in ("periodic", "neumann"):
         raise MorphogenError(f"boundary {boundary!r}: the analysis takes periodic or neumann")
     grid = Grid(shape, dx=dx, stencil=stencil, boundary=boundary)

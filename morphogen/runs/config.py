@@ -11,13 +11,14 @@ on the same machine. :mod:`morphogen.runs.prepare` resolves it into objects and
 from __future__ import annotations
 
 import json
-from dataclasses import field, fields, make_dataclass
+from dataclasses import dataclass, field, fields
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 from morphogen.errors import MorphogenError
 from morphogen.runs.schema import validate_config
-from morphogen.runs.settings import REQUIRED, SETTINGS, Setting, default
+from morphogen.runs.settings import default
 from morphogen.util.io import read_bytes
 
 FORMAT = "morphogen-run/1"
@@ -39,30 +40,56 @@ def _from_dict(cls: type, data: dict[str, Any]) -> Any:
     return cls(**data)
 
 
-def _field(setting: Setting) -> tuple:
-    """A dataclass field of a row: lists and dicts get a fresh copy of the default per run."""
-    if setting.default is REQUIRED:
-        return setting.name, setting.type
-    if isinstance(setting.default, list | dict):
-        return setting.name, setting.type, field(
-            default_factory=lambda name=setting.name: default(name))
-    return setting.name, setting.type, field(default=setting.default)
-
-
-_DOC = """Everything that determines a simulation and its pictures: one field per row of
-    :data:`morphogen.runs.settings.SETTINGS`, with its default.
+@dataclass
+class RunConfig:
+    """Everything that determines a simulation and its pictures: one field per row of
+    :data:`morphogen.runs.settings.SETTINGS`, in its order, with its type and default
+    (``tests/test_settings_table.py`` checks that they agree, and prints the lines to paste
+    when a row is added).
 
     ``steps`` or ``time`` may be ``None``: the model's suggested ``t_end`` and ``dt`` fill in
     (the suggested ``dt`` is reduced to 90 % of the stability limit when the domain needs it).
     ``clamp`` is ``"model"`` (the model's own bounds), ``None`` or ``[lo, hi]``.
-    ``RunConfig.from_dict(data)`` rebuilds a config from ``run.json``'s ``config`` object
-    (unknown keys are an error).
+    :meth:`from_dict` rebuilds a config from ``run.json``'s ``config`` object (unknown keys are
+    an error).
     """
 
-RunConfig = make_dataclass(
-    "RunConfig", [_field(s) for s in SETTINGS],
-    namespace={"from_dict": classmethod(_from_dict), "__doc__": _DOC, "__module__": __name__},
-)
+    model: str
+    model_source: str | None = None
+    preset: str | None = None
+    params: dict[str, Any] = field(default_factory=partial(default, "params"))
+    size: list[int] = field(default_factory=partial(default, "size"))
+    mesh: str | None = None
+    mesh_fields: list[str] = field(default_factory=partial(default, "mesh_fields"))
+    dx: float = 1.0
+    boundary: Any = "periodic"
+    stencil: int | str | None = None
+    dt: float | None = None
+    steps: int | None = None
+    time: float | None = None
+    scheme: str = "euler"
+    rtol: float | None = None
+    atol: float | None = None
+    seed: int = 0
+    init: str | None = None
+    init_options: dict[str, Any] = field(default_factory=partial(default, "init_options"))
+    noise: dict[str, Any] | None = None
+    clamp: Any = "model"
+    every: int | None = None
+    species: str | None = None
+    cmap: str | None = None
+    vmin: float | None = None
+    vmax: float | None = None
+    threshold: float | None = None
+    fps: float = 12.0
+    animation: str = "gif"
+    unsafe: bool = False
+    precision: str = "float32"
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> RunConfig:
+        """The config of ``run.json``'s ``config`` object (unknown keys are an error)."""
+        return _from_dict(cls, data)
 
 
 def load_run_file(path: str | Path) -> RunConfig:

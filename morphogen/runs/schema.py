@@ -15,7 +15,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, StrictStr, ValidationError, model_validator
 
 from morphogen.errors import MorphogenError
-from morphogen.runs.settings import REQUIRED, SEED_MAX, SETTINGS
+from morphogen.runs.settings import SEED_MAX
 from morphogen.solvers.registry import NAMES
 
 Finite = Annotated[float, Field(allow_inf_nan=False)]
@@ -24,6 +24,8 @@ Count = Annotated[int, Field(ge=1)]
 Value = Annotated[float, Field(allow_inf_nan=False)] | StrictStr
 Bound = Annotated[list[Finite], Field(min_length=2, max_length=2)]
 Seed = Annotated[int, Field(ge=0, le=SEED_MAX)]
+Size = Annotated[list[Annotated[int, Field(ge=3)]], Field(min_length=2, max_length=3)]
+Rate = Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)]
 
 Scheme = Literal[NAMES]
 """``scheme``: a name of :data:`morphogen.solvers.registry.NAMES`."""
@@ -53,23 +55,46 @@ def _ordered(self: BaseModel) -> BaseModel:
     return self
 
 
-def _schema() -> type[BaseModel]:
-    """:class:`RunSchema` from :data:`morphogen.runs.settings.SETTINGS`: each row's ``schema``
-    text is its field's type (read in this module's namespace), its default the field's."""
-    namespace: dict[str, Any] = {
-        "__module__": __name__,
-        "__qualname__": "RunSchema",
-        "__doc__": "Every field of :class:`morphogen.runs.config.RunConfig`, one per row of "
-                   ":data:`morphogen.runs.settings.SETTINGS`.",
-        "__annotations__": {s.name: s.schema for s in SETTINGS},
-        "model_config": ConfigDict(extra="forbid", strict=True),
-        "_ordered": model_validator(mode="after")(_ordered),
-    }
-    namespace.update({s.name: s.default for s in SETTINGS if s.default is not REQUIRED})
-    return type("RunSchema", (BaseModel,), namespace)
+class RunSchema(BaseModel):
+    """Every field of :class:`morphogen.runs.config.RunConfig`, one per row of
+    :data:`morphogen.runs.settings.SETTINGS`: the row's ``schema`` text is the field's type, its
+    default the field's (``tests/test_settings_table.py`` checks that they agree)."""
 
+    model_config = ConfigDict(extra="forbid", strict=True)
 
-RunSchema = _schema()
+    model: Annotated[StrictStr, Field(min_length=1)]
+    model_source: StrictStr | None = None
+    preset: StrictStr | None = None
+    params: dict[StrictStr, Value] = {}
+    size: Size = [256, 256]
+    mesh: StrictStr | None = None
+    mesh_fields: list[StrictStr] = []
+    dx: Positive = 1.0
+    boundary: StrictStr | dict[StrictStr, StrictStr] = "periodic"
+    stencil: Literal[5, 7, 9, 'spectral'] | None = None
+    dt: Positive | None = None
+    steps: Count | None = None
+    time: Positive | None = None
+    scheme: Scheme = "euler"
+    rtol: Positive | None = None
+    atol: Positive | None = None
+    seed: Seed = 0
+    init: StrictStr | None = None
+    init_options: dict[StrictStr, Value] = {}
+    noise: NoiseSchema | None = None
+    clamp: Literal["model"] | Bound | None = "model"
+    every: Count | None = None
+    species: StrictStr | None = None
+    cmap: StrictStr | None = None
+    vmin: Finite | None = None
+    vmax: Finite | None = None
+    threshold: Finite | None = None
+    fps: Rate = 12.0
+    animation: Literal["gif", "mp4"] = "gif"
+    unsafe: bool = False
+    precision: Literal["float32", "float64"] = "float32"
+
+    _ordered = model_validator(mode="after")(_ordered)
 
 
 def validate_config(data: Any, where: str = "run") -> None:

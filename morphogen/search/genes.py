@@ -50,10 +50,10 @@ class Gene:
             raise MorphogenError(
                 f"gene {self.name}: range {self.low:g}:{self.high:g} must be finite with low < high"
             )
-        if self.sigma is None:
-            object.__setattr__(self, "sigma", DEFAULT_SIGMA_FRACTION * (self.high - self.low))
-        if not (math.isfinite(self.sigma) and self.sigma >= 0):
-            raise MorphogenError(f"gene {self.name}: sigma must be >= 0, got {self.sigma:g}")
+        sigma = DEFAULT_SIGMA_FRACTION * self.width if self.sigma is None else self.sigma
+        object.__setattr__(self, "sigma", sigma)
+        if not (math.isfinite(sigma) and sigma >= 0):
+            raise MorphogenError(f"gene {self.name}: sigma must be >= 0, got {sigma:g}")
 
     @property
     def width(self) -> float:
@@ -86,7 +86,7 @@ class Gene:
             sigma = DEFAULT_SIGMA_FRACTION * (high - low)
         return cls(name.strip(), low, high, sigma)
 
-    def to_dict(self) -> dict[str, float | str]:
+    def to_dict(self) -> dict[str, float | str | None]:
         return {"name": self.name, "low": self.low, "high": self.high, "sigma": self.sigma}
 
     @classmethod

@@ -195,7 +195,7 @@ def _diffusion(coefficients: Sequence[Evaluator | None], tensors: Mapping[int, t
 
     def diffusion(p: Params, c: Mapping[str, Array]) -> tuple:
         env = {**p, **c}
-        out = []
+        out: list[Any] = []
         for i, coef in enumerate(coefficients):
             if i in tensors:
                 out.append(principal_tensor(*(f(env) for f in tensors[i])))
@@ -308,7 +308,7 @@ def _parameters(data, src, species) -> dict[str, float]:
 
 
 def _presets(data, src, params) -> dict[str, dict[str, float]]:
-    out = {}
+    out: dict[str, dict[str, float]] = {}
     for preset, values in _table(data, "presets", src).items():
         if not isinstance(values, dict):
             raise src.error(f"presets.{preset} must be a table of parameter values")
