@@ -16,6 +16,7 @@ from morphogen.search.fitness import ask_selection
 from morphogen.search.genes import Gene, check_genes, preset_genes
 from morphogen.search.run import (
     STRATEGIES,
+    check_resumable,
     evolve,
     make_strategy,
     resolve_run,
@@ -154,6 +155,7 @@ def run(args: argparse.Namespace) -> int:
             raise MorphogenError(
                 f"run {run_id} has a damaged stored configuration; it cannot be resumed"
             ) from None
+        check_resumable(run_id, archive)  # before --generations changes the record
         if args.generations is not None:
             set_generations(run_id, archive, args.generations)
         executor = make_executor(args.executor, problem, gradient=gradient,

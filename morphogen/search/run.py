@@ -136,6 +136,7 @@ def evolve(
         progress: show a progress bar (with ETA) during each generation.
         log: receives one summary line per generation.
     """
+    check_resumable(run_id, archive)  # the folder, the archive and its rows, before any change
     run = archive.run(run_id)
     config = run["config"]
     directory = Path(run["dir"])
@@ -213,6 +214,68 @@ def _write_qd(directory: Path, problem: Problem, strategy: MapElites, state: Any
     template = strategy.init(jax.random.PRNGKey(0), problem.genes)
     history = qd_report.qd_history(strategy, template, archive, run_id)
     qd_report.write_qd_plot(directory, history, strategy.cell_count, label)
+
+
+def check_resumable(run_id: str, archive: Archive) -> None:
+    """Refuse, before anything is written, a run that cannot go on: its folder missing, not a
+    folder, or holding another run (the archive and the folder must agree on the run's id); its
+    stored configuration unreadable; a generation missing from the record; a stored genome that
+    is not one finite number per gene; or a saved strategy state that does not fit the
+    strategy. A new run (nothing recorded yet) passes at once.
+
+    Raises:
+        MorphogenError: one line naming the run and what is wrong.
+    """
+    import json
+
+    from morphogen.util.io import file_kind
+
+    run = archive.run(run_id)
+    directory = Path(run["dir"])
+    where = f"run {run_id}'s folder {directory}"
+    if not directory.exists():
+        raise MorphogenError(f"{where} does not exist (deleted or moved), so the run cannot be "
+                             f"resumed; the archive {archive.path} keeps only its record")
+    if not directory.is_dir():
+        raise MorphogenError(f"{where} is {file_kind(directory.stat().st_mode)}, not a folder; "
+                             "the run cannot be resumed")
+    try:
+        folder = json.loads(read_text(directory / CONFIG, "run configuration"))
+    except MorphogenError as exc:
+        raise MorphogenError(f"{where} no longer holds the run ({exc}); it cannot be resumed"
+                             ) from None
+    except (ValueError, RecursionError):
+        folder = None
+    if not isinstance(folder, dict) or folder.get("id") != run_id:
+        other = folder.get("id") if isinstance(folder, dict) else None
+        raise MorphogenError(
+            f"{where} holds {'run ' + repr(other) if other else 'no readable run'}, not run "
+            f"{run_id}: the archive {archive.path} and the folder disagree; the run cannot be "
+            "resumed")
+    config = run["config"]
+    try:
+        problem = Problem.from_dict(config["problem"])
+        strategy = make_strategy(config["strategy"])
+    except (KeyError, TypeError, ValueError, AttributeError):
+        raise MorphogenError(f"run {run_id} has a damaged stored configuration; it cannot be "
+                             "resumed") from None
+    gens = [int(row["gen"]) for row in archive.generations(run_id)]
+    if not gens:
+        return
+    if gens != list(range(1, len(gens) + 1)):
+        raise MorphogenError(f"run {run_id} in the archive {archive.path} records generations "
+                             f"{gens[:6]}{'...' if len(gens) > 6 else ''}, not 1 to "
+                             f"{len(gens)}; it cannot be resumed")
+    n = len(problem.genes)
+    for row in archive.individuals(run_id):
+        genome = np.asarray(row["genome"], np.float64)
+        if genome.shape != (n,) or not np.isfinite(genome).all():
+            raise MorphogenError(
+                f"run {run_id} in the archive {archive.path} has a damaged row (generation "
+                f"{row['gen']}, individual {row['idx']}: a genome of {genome.size} values, "
+                f"{'not finite' if genome.shape == (n,) else f'not {n}'}); it cannot be resumed")
+    template = strategy.init(jax.random.PRNGKey(0), problem.genes)
+    state_from_arrays(template, archive.last_state(run_id)[1])
 
 
 def set_generations(run_id: str, archive: Archive, generations: int) -> None:
