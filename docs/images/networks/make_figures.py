@@ -2,7 +2,7 @@
 figures.
 
     python docs/images/networks/make_figures.py RUNS_DIR [--runs N] [--workers W] [--plot-only]
-        [--experiments 1 2] [--tag TAG]
+        [--experiments 1 2] [--tag TAG] [--partial]
 
 Experiment 1 (§4.1, rates of the Table-2 network) and Experiment 2 (§4.2, n = 3, m ≤ 12,
 networks evolved), ``N`` runs each (seeds 1, 2, …; default :data:`RUNS`), at the full Table-1
@@ -19,7 +19,9 @@ Then the figures: best fitness per generation, one curve per run (the seed's fig
 the best pattern of each experiment and of the hand-made network as A/B/C heat maps with colour
 bars (figs. 1, 4, 6), and the best Experiment-2 network's reaction table next to its drawing,
 each PNG named with ``--tag`` (``fitness_exp1_TAG.png``; none for the earlier literal-reading
-runs' figures); an experiment without a finished run is skipped.
+runs' figures); an experiment without a finished run is skipped. ``--partial`` draws unfinished
+runs too (a run stopped before its last generation: its curve ends there, its legend names the
+generations done, and its last population counts for the best pattern).
 """
 
 from __future__ import annotations
@@ -117,14 +119,24 @@ def run_all(root: Path, runs: int, workers: int, experiments: tuple[int, ...] = 
 
 
 def finished(root: Path, number: int) -> list[Path]:
-    """The finished run folders of an experiment, by seed."""
-    return sorted((p for p in root.glob(f"exp{number}-seed*")
-                   if completed(p) >= BUDGET["generations"]),
+    """The finished run folders of an experiment, by seed (with ``--partial``, every run with
+    at least one generation done)."""
+    least = 1 if PARTIAL[0] else BUDGET["generations"]
+    return sorted((p for p in root.glob(f"exp{number}-seed*") if completed(p) >= least),
                   key=lambda p: int(p.name.rsplit("seed", 1)[1]))
+
+
+def _label(folder: Path) -> str:
+    """``seedS``, with the generations done when the run is unfinished."""
+    done = completed(folder)
+    seed = folder.name.split("-")[1]
+    return seed if done >= BUDGET["generations"] else f"{seed}, {done} of {BUDGET['generations']}"
 
 
 TAG = [""]
 """Suffix of the figures' names (``--tag``)."""
+PARTIAL = [False]
+"""Draw unfinished runs too (``--partial``)."""
 
 
 def _png(name: str) -> Path:
@@ -142,7 +154,7 @@ def fitness_figure(root: Path, number: int) -> None:
         history = load_state(folder / "state.npz")[1]
         gens = np.arange(1, len(history) + 1)
         style = dict(marker=markers[i % len(markers)], ms=7 - 1.5 * (i % 3), mfc="none",
-                     markevery=(i, 3), lw=1, label=folder.name.split("-")[1])
+                     markevery=(i, 3), lw=1, label=_label(folder))
         best.plot(gens, history.max(axis=1), **style)
         valid.plot(gens, (history >= 0).sum(axis=1), **style)
     best.axhline(EVAL.size ** 2, color="0.6", ls=":", lw=1)
@@ -158,6 +170,7 @@ def fitness_figure(root: Path, number: int) -> None:
     valid.set_ylim(0, BUDGET["population"] * 1.05)
     for ax in (best, valid):
         ax.grid(alpha=0.3)
+        ax.set_xlim(0, BUDGET["generations"] + 1)
     fig.tight_layout()
     fig.savefig(_png(f"fitness_exp{number}"))
 
@@ -211,12 +224,13 @@ def pattern_figure(genome: Genome, spec: NetworkSpec, name: str, title: str) -> 
     for i, species in enumerate(spec.species):
         ax = fig.add_subplot(1, spec.n, i + 1)
         field = states[0, i]
-        mid, half = float(field.mean()), float(np.ptp(field)) / 2
-        flat = half < 5e-4 * max(abs(mid), 1.0)  # show a uniform field as uniform
+        # the scale runs from the field's min to its max (centred on the mean it clipped the
+        # spots' tops and showed negative values no cell had); a uniform field shows uniform
+        mid, lo, hi = float(field.mean()), float(field.min()), float(field.max())
+        flat = (hi - lo) / 2 < 5e-4 * max(abs(mid), 1.0)
         if flat:
-            half = 5e-4 * max(abs(mid), 1.0)
-        im = ax.imshow(field, cmap="viridis", interpolation="nearest", vmin=mid - half,
-                       vmax=mid + half)
+            lo, hi = mid - 5e-4 * max(abs(mid), 1.0), mid + 5e-4 * max(abs(mid), 1.0)
+        im = ax.imshow(field, cmap="viridis", interpolation="nearest", vmin=lo, vmax=hi)
         bar = fig.colorbar(im, ax=ax, shrink=0.8)
         bar.formatter = matplotlib.ticker.ScalarFormatter(useOffset=False)
         bar.update_ticks()
@@ -254,6 +268,13 @@ def network_figure(genome: Genome, spec: NetworkSpec, label: str) -> None:
     fig.savefig(_png("network_exp2"))
 
 
+def _name(folder: Path) -> str:
+    """The run folder's name, with the generations done when the run is unfinished."""
+    done = completed(folder)
+    return (folder.name if done >= BUDGET["generations"]
+            else f"{folder.name}, generation {done} of {BUDGET['generations']}")
+
+
 def make_figures(root: Path, experiments: tuple[int, ...] = (1, 2)) -> None:
     experiments = tuple(n for n in experiments if finished(root, n))
     for number in experiments:
@@ -268,12 +289,12 @@ def make_figures(root: Path, experiments: tuple[int, ...] = (1, 2)) -> None:
         genome, fit, folder = best_genome(root, number)
         spec = experiment(number)[0]
         again = pattern_figure(genome, spec, f"pattern_exp{number}",
-                               f"Experiment {number}, best ({folder})")
+                               f"Experiment {number}, best ({_name(root / folder)})")
         print(f"experiment {number}: best {fit:.2f} in {folder} ({again:.2f} on key 0)")
         for r in describe(genome, spec):
             print(f"  {r['reaction']:<28} {r['k']:.2g}{'  (imposed)' if r['fixed'] else ''}")
         if number == 2:
-            network_figure(genome, spec, folder)
+            network_figure(genome, spec, _name(root / folder))
 
 
 if __name__ == "__main__":
@@ -284,8 +305,11 @@ if __name__ == "__main__":
     parser.add_argument("--plot-only", action="store_true")
     parser.add_argument("--experiments", type=int, nargs="+", choices=(1, 2), default=(1, 2))
     parser.add_argument("--tag", default="")
+    parser.add_argument("--partial", action="store_true",
+                        help="draw unfinished runs too (their generations so far)")
     args = parser.parse_args()
     TAG[0] = args.tag
+    PARTIAL[0] = args.partial
     if not args.plot_only:
         os.environ.setdefault("XLA_FLAGS", SINGLE_THREAD)
         run_all(args.runs_dir, args.runs, args.workers, tuple(args.experiments))
