@@ -48,7 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="whether the species' high is the picture's light (as-is), dark "
                    "(inverted) or either (auto)")
     p.add_argument("--top", type=options.positive_int, default=3, help="candidates to answer")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=options.seed, default=0, help="random seed (0)")
     p.add_argument("--out", required=True, metavar="DIR", help="answer directory")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -58,8 +58,8 @@ def run(args: argparse.Namespace) -> int:
     from morphogen.match import DEFAULT_MODELS, match
     from morphogen.match.picture import parse_crop
 
-    models = [m.strip() for m in args.models.split(",") if m.strip()] if args.models \
-        else list(DEFAULT_MODELS)
+    models = list(DEFAULT_MODELS) if args.models is None \
+        else [m.strip() for m in args.models.split(",") if m.strip()]
     result = match(args.image, models=models, genes=args.gene, budget=args.budget,
                    minutes=args.minutes, channel=args.channel, crop=parse_crop(args.crop),
                    field=args.field,

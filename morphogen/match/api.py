@@ -22,7 +22,6 @@ which the same command resumes, and which is removed once the answer is written.
 from __future__ import annotations
 
 import hashlib
-import shutil
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -41,6 +40,10 @@ from morphogen.match.signature import Signature, signature
 
 POLARITIES = ("auto", "as-is", "inverted")
 """``auto``: a species' high may be the picture's light or dark; the others fix it."""
+
+MAX_BUDGET = 100_000
+"""Most simulations one match may be asked for (days of CPU; the search's draws and records
+grow with it, so a mistyped ``--budget 1e12`` is refused before anything is allocated)."""
 
 
 @dataclass
@@ -132,12 +135,16 @@ def match(
     Raises:
         MorphogenError: bad picture, model, gene, option or output directory (nothing written).
     """
+    from morphogen.runs.settings import SEED_MAX
     from morphogen.util.io import check_run_dir, staged_dir
     from morphogen.util.progress import ProgressBar
 
     started = time.perf_counter()
-    if int(budget) < 8:
-        raise MorphogenError(f"the budget must be at least 8 simulations, got {budget}")
+    if not 8 <= int(budget) <= MAX_BUDGET:
+        raise MorphogenError(f"the budget must be at least 8 and at most {MAX_BUDGET:,} "
+                             f"simulations, got {budget:,}")
+    if not 0 <= int(seed) <= SEED_MAX:
+        raise MorphogenError(f"the seed must be a whole number from 0 to {SEED_MAX}, got {seed}")
     if minutes is not None and not minutes > 0:
         raise MorphogenError(f"minutes must be positive, got {minutes}")
     if polarity not in POLARITIES:
@@ -155,8 +162,7 @@ def match(
                 "budget": int(budget), "polarity": polarity, "seed": int(seed)}
     if picture.mask is not None:
         identity["mask"] = hashlib.sha256(np.packbits(picture.mask).tobytes()).hexdigest()
-    work = _work_dir(out)
-    journal = Journal(work, identity)
+    journal = Journal(_work_dir(out), identity)
     say = log or (lambda _line: None)
     if picture.note:
         say(f"{Path(picture.source).name}: {picture.note}")
@@ -179,10 +185,14 @@ def match(
         samples = run_search(boxes, target, picture.inner, budget=Budget(int(budget), minutes),
                              journal=journal, polarity=polarity, seed=int(seed), progress=tick)
         if not any(d < 5.0 for d in samples.distance):
+            journal.remove()  # a finished search: nothing to resume from
             raise MorphogenError("no candidate formed a pattern; raise --budget or name other "
                                  "--models")
         candidates = answer(samples, boxes, target, picture.field.shape, picture.scale,
                             top=int(top), seed=int(seed), journal=journal, progress=tick)
+    except MorphogenError:
+        journal.discard_if_empty()  # a refusal before any population leaves no journal
+        raise
     finally:
         bar.close()
     seconds = time.perf_counter() - started
@@ -202,7 +212,7 @@ def match(
         with staged_dir(out) as stage:
             write_answer(stage, picture.rgb, target, picture.scale, candidates, summary, text,
                          centre=picture.centre)
-        shutil.rmtree(work, ignore_errors=True)
+        journal.remove()
         result.directory = Path(out)
     return result
 

@@ -181,10 +181,10 @@ def to_field(rgb: np.ndarray, channel: str = "auto") -> np.ndarray:
             axis = np.array([float(v) for v in channel.split(",")])
         except ValueError:
             axis = np.zeros(0)
-        if axis.shape != (3,) or not np.any(axis):
+        if axis.shape != (3,) or not np.any(axis) or not np.all(np.isfinite(axis)):
             raise MorphogenError(
                 f"unknown channel {channel!r}; use one of {', '.join(CHANNELS)} or a colour "
-                "axis R,G,B such as 1,-1,0")
+                "axis of three finite numbers R,G,B such as 1,-1,0")
         value = flat @ axis
     value = value.reshape(rgb.shape[:2])
     lo, hi = float(value.min()), float(value.max())

@@ -30,6 +30,7 @@ back instead of simulating them, and continues exactly as the uninterrupted sear
 from __future__ import annotations
 
 import json
+import shutil
 import time
 import zlib
 from collections.abc import Callable, Sequence
@@ -42,7 +43,7 @@ from morphogen.errors import MorphogenError
 from morphogen.match.boxes import SEARCH_SIZE, Box, preset_genomes
 from morphogen.match.signature import Signature, distance, normalise, signature
 from morphogen.search.genes import Gene
-from morphogen.util.io import write_json, write_npz
+from morphogen.util.io import read_text, write_json, write_npz
 
 SHARES = (0.4, 0.4, 0.2)
 """Shares of the budget for explore, exploit and refine."""
@@ -107,17 +108,42 @@ class Journal:
     def __init__(self, directory: Path | None, identity: dict):
         self.directory = directory
         self.memory: dict[str, dict[str, np.ndarray]] = {}
+        self.made = False
+        self.written = False
         if directory is None:
             return
-        directory.mkdir(parents=True, exist_ok=True)
         stamp = directory / "identity.json"
-        if stamp.is_file():
-            if json.loads(stamp.read_text()) != json.loads(json.dumps(identity)):
+        if stamp.exists():
+            try:
+                same = json.loads(read_text(stamp, "match journal")) == \
+                    json.loads(json.dumps(identity))
+            except (MorphogenError, ValueError):
+                same = False
+            if not same:
                 raise MorphogenError(
                     f"{directory} holds an unfinished match of another picture or with other "
                     "settings; delete it or choose another --out")
-        else:
+            return
+        self.made = not directory.exists()
+        try:
+            directory.mkdir(parents=True, exist_ok=True)
             write_json(stamp, identity)
+        except (OSError, MorphogenError) as exc:
+            self.discard_if_empty()
+            reason = exc.strerror if isinstance(exc, OSError) else str(exc)
+            raise MorphogenError(f"cannot create the match's work directory {directory}: "
+                                 f"{reason}") from None
+
+    def discard_if_empty(self) -> None:
+        """Remove the directory this journal made if no population was written to it (a
+        refusal before the search began leaves nothing behind)."""
+        if self.made and not self.written:
+            self.remove()
+
+    def remove(self) -> None:
+        """Remove the journal's directory (the answer is written, or nothing can resume)."""
+        if self.directory is not None:
+            shutil.rmtree(self.directory, ignore_errors=True)
 
     def get(self, key: str) -> dict[str, np.ndarray] | None:
         if key in self.memory:
@@ -137,6 +163,7 @@ class Journal:
         self.memory[key] = rec
         if self.directory is not None:
             write_npz(self.directory / f"{key}.npz", rec)
+            self.written = True
 
 
 class Scorer:
@@ -144,15 +171,15 @@ class Scorer:
 
     def __init__(self, box: Box, target: Signature, picture: np.ndarray, polarity: str, seed: int):
         from morphogen.models.registry import load_model
-        from morphogen.search.evaluate import Problem, cached_evaluator
+        from morphogen.search.evaluate import Problem, cached_evaluator, policy_problem
 
         self.box = box
         model = load_model(box.model)
-        steps = max(1, round((box.time or model.t_end) / model.dt))
-        self.problem = Problem(
+        problem = Problem(
             model=box.model, genes=box.genes, model_source=model.source,
-            size=(SEARCH_SIZE, SEARCH_SIZE), dx=box.dx, dt=float(model.dt), steps=steps,
-            seed=seed, init=model.init)
+            size=(SEARCH_SIZE, SEARCH_SIZE), dx=box.dx, seed=seed, init=model.init)
+        # dt and steps from the run policy, as every front end's
+        self.problem = policy_problem(problem, time=box.time, model=model)
         self.evaluator = cached_evaluator(json.dumps(self.problem.to_dict(), sort_keys=True))
         self.target, self.picture, self.polarity = target, picture, polarity
 
