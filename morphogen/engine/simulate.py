@@ -37,6 +37,7 @@ from morphogen.engine.solve_watch import SolveWatch
 from morphogen.errors import DivergenceError, MorphogenError, MorphogenWarning, round_down
 from morphogen.models.model import Array, Model, Params
 from morphogen.solvers.auto import choose_error_controlled, choose_scheme
+from morphogen.solvers.policy import plan_run
 from morphogen.solvers.registry import ERROR_CONTROLLED, IMPLICIT_DIFFUSION
 from morphogen.solvers.stability import observed_scale
 from morphogen.solvers.step import Noise, Step, check_stability, make_step, max_stable_dt
@@ -143,6 +144,7 @@ class Solution:
         snapshot_times: the time of each snapshot.
         warnings: one line per problem that did not stop the run (an implicit solve that
             stopped at its iteration cap: :mod:`morphogen.engine.solve_watch`).
+        dt: the step (the first step for an error-controlled scheme).
     """
 
     state: np.ndarray
@@ -157,6 +159,7 @@ class Solution:
     rejected_steps: int | None = None
     snapshot_times: list[float] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    dt: float = 0.0
 
 
 def simulate(
@@ -165,8 +168,8 @@ def simulate(
     u0: Array,
     params: Params,
     *,
-    steps: int,
-    dt: float,
+    steps: int | None = None,
+    dt: float | None = None,
     scheme: str = "euler",
     noise: Noise | None = None,
     clamp: tuple[float, float] | None | str = "model",
@@ -178,8 +181,15 @@ def simulate(
     rtol: float | None = None,
     atol: float | None = None,
     on_chunk: Callable[[int], None] | None = None,
+    t_end: float | None = None,
 ) -> Solution:
     """Simulate one state ``u0`` (shape ``(S, *spatial)``) for ``steps`` steps of ``dt``.
+
+    ``dt`` and ``steps`` may be left out: the run policy every front end uses fills them in
+    (:func:`morphogen.solvers.policy.plan_run`: ``auto`` resolved once; the model's ``dt``
+    within an explicit scheme's stability limit, the limit of a scheme with implicit or exact
+    diffusion; ``steps = round(t_end / dt)``, ``t_end`` the model's suggested end time unless
+    given). The ``dt`` used is ``Solution.dt``.
 
     Args:
         params: parameter values (scalars or fields broadcastable to the spatial shape).
@@ -207,9 +217,10 @@ def simulate(
             starting scale, naming the step, species and a ``dt`` to retry with.
     """
     return _drive(
-        model, domain, u0, params, batched=False, steps=steps, dt=dt, scheme=scheme,
-        noise=noise, clamp=clamp, seed=seed, every=every, max_snapshots=max_snapshots,
-        progress=progress, unsafe=unsafe, rtol=rtol, atol=atol, on_chunk=on_chunk,
+        model, domain, u0, params, batched=False, steps=steps, dt=dt, t_end=t_end,
+        scheme=scheme, noise=noise, clamp=clamp, seed=seed, every=every,
+        max_snapshots=max_snapshots, progress=progress, unsafe=unsafe, rtol=rtol, atol=atol,
+        on_chunk=on_chunk,
     )
 
 
@@ -219,8 +230,8 @@ def simulate_batch(
     u0: Array,
     params: Params,
     *,
-    steps: int,
-    dt: float,
+    steps: int | None = None,
+    dt: float | None = None,
     scheme: str = "euler",
     noise: Noise | None = None,
     clamp: tuple[float, float] | None | str = "model",
@@ -230,6 +241,7 @@ def simulate_batch(
     progress: bool = False,
     unsafe: bool = False,
     on_chunk: Callable[[int], None] | None = None,
+    t_end: float | None = None,
 ) -> Solution:
     """Simulate a batch as one jitted program (vmapped on accelerators; on CPU in blocks of
     members sized by :func:`batch_block`, which measures faster there).
@@ -238,20 +250,31 @@ def simulate_batch(
     :func:`morphogen.solvers.step.batch_params`). Members that blow up do not stop the run: they
     are marked in ``Solution.valid`` (search strategies score them worst). ``on_chunk(n)`` is
     called after each compiled chunk of ``n`` steps; an exception it raises stops the run there
-    (a server's cancel button).
+    (a server's cancel button). ``dt`` and ``steps`` left out come from the run policy, over
+    every member, as in :func:`simulate`.
     """
     return _drive(
-        model, domain, u0, params, batched=True, steps=steps, dt=dt, scheme=scheme,
-        noise=noise, clamp=clamp, seed=seed, every=every, max_snapshots=max_snapshots,
-        progress=progress, unsafe=unsafe, on_chunk=on_chunk,
+        model, domain, u0, params, batched=True, steps=steps, dt=dt, t_end=t_end,
+        scheme=scheme, noise=noise, clamp=clamp, seed=seed, every=every,
+        max_snapshots=max_snapshots, progress=progress, unsafe=unsafe, on_chunk=on_chunk,
     )
 
 
-def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, scheme: str,
-           noise, clamp, seed: int, every, max_snapshots: int, progress: bool,
-           unsafe: bool, rtol: float | None = None, atol: float | None = None,
-           on_chunk: Callable[[int], None] | None = None) -> Solution:
+def _drive(model, domain, u0, params, *, batched: bool, steps: int | None, dt: float | None,
+           t_end: float | None, scheme: str, noise, clamp, seed: int, every,
+           max_snapshots: int, progress: bool, unsafe: bool, rtol: float | None = None,
+           atol: float | None = None, on_chunk: Callable[[int], None] | None = None
+           ) -> Solution:
     start = time.perf_counter()
+    if dt is None and steps is not None and t_end is not None:
+        dt, t_end = float(t_end) / steps, None
+    if dt is None or steps is None:
+        plan = plan_run(model, domain, {k: jnp.asarray(v) for k, v in params.items()},
+                        scheme=scheme, dt=dt, steps=steps, t_end=t_end, unsafe=unsafe,
+                        rtol=rtol, atol=atol, batched=batched, where="simulate")
+        scheme, dt, steps = plan.scheme, plan.dt, plan.steps
+    elif t_end is not None:
+        raise MorphogenError("give at most two of steps, dt and t_end")
     if steps < 0:
         raise MorphogenError(f"steps must be >= 0, got {steps}")
     if not (np.isfinite(dt) and dt > 0):
@@ -323,6 +346,7 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int, dt: float, s
         scheme=scheme,
         snapshot_times=[k * dt for k in snap_steps],
         warnings=[warning] if warning else [],
+        dt=float(dt),
     )
 
 
@@ -346,7 +370,7 @@ def _adaptive(model, domain, u, p, *, batched: bool, steps: int, dt: float, sche
     return Solution(state=run.state, t=run.t, steps=run.accepted, snapshots=run.snapshots,
                     snapshot_steps=run.snapshot_steps, wall_time=time.perf_counter() - start,
                     scheme=scheme, rejected_steps=run.rejected,
-                    snapshot_times=run.snapshot_times)
+                    snapshot_times=run.snapshot_times, dt=float(dt))
 
 
 def _replay(step: Step, p: Params, dt: float, u: Array, t: Array, key: Array, n: int

@@ -10,9 +10,9 @@ costs time), and the spacing is
 
 since a reaction-diffusion pattern's wavelength is a physical length (set by the diffusion
 lengths, Turing's ``2π/k*``), so its count of cells scales as ``1/dx``. The grid covers the picture
-(``H / ppc`` by ``W / ppc`` cells, at most :data:`MAX_SIDE`), ``dt`` is the model's, reduced to the
-explicit stability limit at the new ``dx`` when needed, for the same simulated time. Each
-candidate is then simulated exactly as its ``run.json`` says (the *verification* run) and
+(``H / ppc`` by ``W / ppc`` cells, at most :data:`MAX_SIDE`), ``dt`` is the run policy's (the
+model's, reduced to the stability limit at the new ``dx`` when needed), for the same simulated
+time. Each candidate is then simulated exactly as its ``run.json`` says (the *verification* run) and
 measured; the candidates are ranked by their replay's descriptor distance to the picture (a
 sample that scored best on the search grid can form another pattern at the picture's scale),
 and for the best one ``dx`` is corrected once by the measured wavelength ratio (discretisation
@@ -159,24 +159,16 @@ def _verify(box: Box, samples: Samples, i: int, dx: float, size: tuple[int, int]
     """Simulate one candidate as its ``run.json`` says and measure it (wavelength in cells)."""
     import jax
 
-    from morphogen.domains.grid import Grid
-    from morphogen.engine.fields import resolve_params
     from morphogen.models.registry import load_model
-    from morphogen.search.evaluate import Evaluator, Problem
+    from morphogen.search.evaluate import Evaluator, Problem, policy_problem
     from morphogen.search.genes import genome_params
     from morphogen.search.report import individual_run_file
-    from morphogen.solvers.step import max_stable_dt
 
     model = load_model(box.model)
     params = genome_params(box.genes, samples.genome[i])
-    values = model.parameters(params)
-    limit = max_stable_dt(model, Grid(size, dx), resolve_params(model, Grid(size, dx), values))
-    time_ = box.time or model.t_end
-    dt = float(min(model.dt, limit))
-    steps = max(1, round(time_ / dt))
     problem = Problem(model=box.model, genes=box.genes, model_source=model.source,
-                      params=params, size=size, dx=float(dx), dt=dt, steps=steps, seed=seed,
-                      init=model.init)
+                      params=params, size=size, dx=float(dx), seed=seed, init=model.init)
+    problem = policy_problem(problem, time=box.time, model=model)  # the run policy's dt
     genome = np.asarray([samples.genome[i]], np.float32)
     rec = journal.get(key)
     if rec is None or not np.isclose(float(rec["dx"]), dx):
@@ -189,8 +181,9 @@ def _verify(box: Box, samples: Samples, i: int, dx: float, size: tuple[int, int]
     sig = signature(f, periodic=True, invert=invert)
     run = individual_run_file(problem, samples.genome[i])
     run["config"]["cmap"] = "gray_r" if invert else "gray"
-    cand = Candidate(model=box.model, params=params, dx=float(dx), size=size, dt=dt, steps=steps,
-                     seed=seed, init=model.init, invert=invert, family=sig.family,
+    cand = Candidate(model=box.model, params=params, dx=float(dx), size=size, dt=problem.dt,
+                     steps=problem.steps, seed=seed, init=model.init, invert=invert,
+                     family=sig.family,
                      distance=samples.distance[i], texture=samples.texture[i],
                      replay_distance=distance(sig, target), wavelength_px=sig.wavelength,
                      replay=f, run=run)

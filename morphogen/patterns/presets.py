@@ -19,6 +19,7 @@ from morphogen.models.library import LIBRARY
 from morphogen.patterns.classify import classify
 from morphogen.patterns.descriptors import describe_batch
 from morphogen.patterns.watch import simulate_watched
+from morphogen.solvers.policy import plan_run
 from morphogen.solvers.step import batch_params
 
 EXPECTED = {
@@ -52,7 +53,8 @@ class PresetResult:
 
 def classify_presets(names: list[str] | None = None, *, size: int = 128, steps: int = 6000,
                      seed: int = 0, count: int = 4, gap: int = 50) -> PresetResult:
-    """Simulate Gray-Scott presets (``dt = 1``, the model's ``blobs`` start) and classify them.
+    """Simulate Gray-Scott presets (the run policy's ``dt``: the model's 1 within the stencil's
+    limit; the model's ``blobs`` start) and classify them.
 
     Richard et al.'s presets use the 9-point stencil their diffusion coefficients were
     converted for; the explorer presets the 5-point one.
@@ -71,7 +73,8 @@ def classify_presets(names: list[str] | None = None, *, size: int = 128, steps: 
         batch = batch_params(batch, len(group), batched=tuple(batch))
         u0 = make_initial(model.init, model, grid, values[0], seed=seed)
         u0 = np.broadcast_to(u0, (len(group), *u0.shape))
-        sol, snaps = simulate_watched(model, grid, u0, batch, steps=steps, dt=model.dt,
+        dt = plan_run(model, grid, batch, steps=steps, batched=True).dt  # the run policy's
+        sol, snaps = simulate_watched(model, grid, u0, batch, steps=steps, dt=dt,
                                       count=count, gap=gap, seed=seed)
         index = model.species_index(model.display_species)
         desc = describe_batch(snaps[:, :, index])

@@ -43,6 +43,7 @@ from morphogen.runs.atlas import (
     classify_atlas,
     compute_atlas,
     instability_report,
+    plan_atlas,
     write_families,
 )
 from morphogen.web import batch
@@ -106,9 +107,12 @@ async def start(request: Request, body: JSONBody):
     if x["name"] == y["name"]:
         raise MorphogenError("the two atlas axes must be different parameters")
     run = batch.settings(body, model, base, lim, tile_default=64)
-    check_budget(run["tile"] ** 2, run["steps"], x["n"] * y["n"], lim)
     grid = Grid((run["tile"], run["tile"]), dx=run["dx"], boundary=run["boundary"],
                 stencil=run["stencil"])
+    axes = (Axis(x["name"], np.asarray(x["values"])), Axis(y["name"], np.asarray(y["values"])))
+    plan = plan_atlas(model, grid, *axes, params=base, dt=run["dt"], steps=run["steps"])
+    run.update(dt=plan.dt, steps=plan.steps)  # the run policy's, as the command line's
+    check_budget(run["tile"] ** 2, run["steps"], x["n"] * y["n"], lim)
     cmap = read_settings(body, ("cmap",), defaults={"cmap": "viridis"})["cmap"]
     families = body.get("families", False)
     if not isinstance(families, bool):
@@ -130,10 +134,8 @@ async def start(request: Request, body: JSONBody):
             progress(done / max(run["steps"], 1), f"{what}: step {done}")
 
         atlas = compute_atlas(
-            model, grid,
-            Axis(x["name"], np.asarray(x["values"])), Axis(y["name"], np.asarray(y["values"])),
-            params=base, steps=run["steps"], dt=run["dt"], init=run["init"], seed=run["seed"],
-            on_chunk=chunk, watch=watch,
+            model, grid, *axes, params=base, steps=run["steps"], dt=run["dt"],
+            init=run["init"], seed=run["seed"], on_chunk=chunk, watch=watch,
         )
         progress(1.0, f"{n_runs} runs in {atlas.wall_time:.1f} s")
         # rows from the top: largest y first

@@ -23,18 +23,20 @@ def settings(body: Mapping[str, Any], model: Model, base: Mapping[str, float], l
     ``stencil``, ``dt``, ``steps``, ``init``, ``seed`` and shown ``species``
     (:func:`morphogen.web.settings.read_settings`).
 
-    Defaults are the model's suggestions (``model.dt``, ``model.t_end / dt``, ``model.init``).
+    ``dt`` and ``steps`` are ``None`` where the body gives none: the run policy fills them in
+    once the grid and the batch are known (:func:`morphogen.runs.atlas.plan_atlas`); the
+    initial condition defaults to the model's.
     """
     run = read_settings(
         body, BATCH_SETTINGS, keys={"size": "tile"}, labels={"size": "tile size"},
         bounds={"size": (8, limits.max_tile_size)},
         defaults={"size": tile_default, "species": model.display_species,
                   "init": model.init if model.init in INITIAL_KINDS else "square"})
-    dt = model.dt if run["dt"] is None else run["dt"]
-    steps = read_settings(body, ("steps",), defaults={"steps": int(round(model.t_end / dt))})
+    steps = read_settings(body, ("steps",))
     model.species_index(run["species"])
     tile = run.pop("size")
-    return {**run, "tile": tile, "dt": float(dt), **steps}
+    dt = None if run["dt"] is None else float(run["dt"])
+    return {**run, "tile": tile, "dt": dt, **steps}
 
 
 HATCH = (6, 2)

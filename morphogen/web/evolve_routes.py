@@ -8,6 +8,7 @@ coefficient (a name starting with ``D``) is a gene on ``[v/2, 3v/2]`` around its
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 from fastapi import APIRouter, Request
@@ -15,7 +16,7 @@ from fastapi import APIRouter, Request
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model
 from morphogen.search.archive import Archive
-from morphogen.search.evaluate import Evaluator, Problem
+from morphogen.search.evaluate import Evaluator, Problem, policy_problem
 from morphogen.search.genes import Gene, check_genes, preset_genes
 from morphogen.search.run import STRATEGIES, start
 from morphogen.web.catalog import check_params, resolve_model
@@ -61,11 +62,16 @@ def default_genes(model: Model) -> list[Gene]:
 
 
 def defaults(model: Model, limits: Limits) -> dict[str, Any]:
-    """Suggested settings for an Evolve run of ``model`` that fit the server's budget."""
+    """Suggested settings for an Evolve run of ``model`` that fit the server's budget: ``dt``
+    and steps from the run policy (:func:`morphogen.runs.policy.resolve_run`) on the suggested
+    grid, the steps cut to the budget (:func:`_budget_steps`)."""
+    from morphogen.domains.grid import Grid
+    from morphogen.runs.policy import resolve_run
+
     size, population = 64, 12
-    dt = float(model.dt)
-    steps = max(1, round(model.t_end / dt))
-    steps = min(steps, int(limits.max_cell_steps / (population * size * size)))
+    plan = resolve_run(model, Grid((size, size)), model.parameters(), population=True)
+    dt = plan.dt
+    steps = min(plan.steps, _budget_steps(limits, population, size))
     init = model.init if model.init in INITIAL_KINDS else "square"
     return {
         "genes": [g.to_dict() for g in default_genes(model)],
@@ -94,6 +100,11 @@ def parse_genes(raw: Any, model: Model) -> tuple[Gene, ...]:
     return tuple(genes)
 
 
+def _budget_steps(limits: Limits, population: int, size: int) -> int:
+    """The most steps a population on a ``size``² grid may take within the server's budget."""
+    return max(1, int(limits.max_cell_steps / (population * size * size)))
+
+
 def build(body: dict[str, Any], limits: Limits) -> tuple[Problem, dict[str, Any], int, int]:
     """A validated ``(problem, strategy spec, generations, seed)`` from a request."""
     spec = body.get("model", {"library": "gray-scott"})
@@ -101,13 +112,12 @@ def build(body: dict[str, Any], limits: Limits) -> tuple[Problem, dict[str, Any]
     d = defaults(model, limits)
     run = read_settings(body, EVOLVE_SETTINGS, labels={"size": "grid size"},
                         bounds={"size": (16, limits.max_tile_size)},
-                        defaults={k: d[k] for k in ("size", "dt", "steps", "init")})
+                        defaults={k: d[k] for k in ("size", "init")})
     population = integer(body.get("population", d["population"]), "population", 2,
                          limits.max_population)
     generations = integer(body.get("generations", d["generations"]), "generations", 1,
                           MAX_GENERATIONS)
-    size, steps, seed = run["size"], run["steps"], run["seed"]
-    check_budget(size * size, steps, population, limits)
+    size, seed = run["size"], run["seed"]
     fitness = choice(body.get("fitness", "user"), "fitness", FITNESS)
     strategy = choice(body.get("strategy", "ga"), "strategy", SEARCH_STRATEGIES)
     if fitness == "user" and strategy in QUALITY_DIVERSITY:
@@ -118,9 +128,15 @@ def build(body: dict[str, Any], limits: Limits) -> tuple[Problem, dict[str, Any]
         model=model.name if "library" in spec else f"{model.name}.toml",
         genes=parse_genes(body.get("genes"), model), model_source=model.source,
         params=check_params(run["params"], model), size=(size, size), dx=run["dx"],
-        boundary=run["boundary"], stencil=run["stencil"], dt=run["dt"], steps=steps, seed=seed,
-        init=run["init"], fitness=fitness,
+        boundary=run["boundary"], stencil=run["stencil"], seed=seed, init=run["init"],
+        fitness=fitness,
     )
+    # dt and steps from the run policy, as the command line's; steps cut to the budget
+    problem = policy_problem(problem, dt=run["dt"], steps=run["steps"], model=model)
+    if run["steps"] is None:
+        problem = replace(problem, steps=min(problem.steps,
+                                             _budget_steps(limits, population, size)))
+    check_budget(size * size, problem.steps, population, limits)
     strat: dict[str, Any] = {"name": strategy, "population": population}
     if strategy == "ga":
         strat.update(elitism=0, tournament=0)

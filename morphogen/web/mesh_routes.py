@@ -34,7 +34,7 @@ from morphogen.engine.initial import make_initial
 from morphogen.engine.simulate import simulate
 from morphogen.errors import MorphogenError
 from morphogen.render.colour import colourise
-from morphogen.solvers.step import max_stable_dt
+from morphogen.runs.policy import resolve_run
 from morphogen.web.catalog import check_params, resolve_model
 from morphogen.web.jobs import Job, Progress
 from morphogen.web.limits import JSONBody, Limits, check_budget, choice, integer, number
@@ -157,8 +157,7 @@ async def start(request: Request, body: JSONBody):
             f"{int(MAX_ACROSS / detail)}"
         )
     given_dt = run["dt"]
-    dt = model.dt if given_dt is None else given_dt
-    steps = read_settings(body, ("steps",), defaults={"steps": round(model.t_end / dt)})["steps"]
+    given_steps = read_settings(body, ("steps",))["steps"]
     init, seed, cmap, species = run["init"], run["seed"], run["cmap"], run["species"]
     index = model.species_index(species)
     paint = check_paint(body.get("paint"), model)
@@ -177,12 +176,6 @@ async def start(request: Request, body: JSONBody):
         if previous is not None and previous.shape[1] != mesh.n_vertices:
             raise MorphogenError("continue needs the same flower (shape, petals, size, "
                                  "detail); grow a new one instead")
-        check_budget(mesh.n_vertices, steps, 1, lim)
-        vertices = np.asarray(mesh.vertices, np.float32)
-        faces = np.asarray(mesh.faces, np.int32)
-        job.files["geometry.json"] = (json.dumps({
-            "vertices": np.round(vertices, 3).ravel().tolist(),
-            "faces": faces.ravel().tolist()}).encode(), "application/json")
         fields = prepattern(paint, model, values, mesh.n_vertices)
         mesh = mesh.replace(fields={k: v for k, v in fields.items() if k in model.params})
         from morphogen.domains.ply import apply_fields
@@ -190,9 +183,16 @@ async def start(request: Request, body: JSONBody):
         u0 = previous if previous is not None else make_initial(init, model, mesh, values,
                                                                  seed=seed)
         u0, run_values = apply_fields(model, mesh, seed_state(u0, model, fields), values)
-        # the model's dt, lowered below the mesh's explicit stability limit unless given
-        step_dt = dt if given_dt is not None else min(
-            dt, 0.95 * max_stable_dt(model, mesh, run_values))
+        # the run policy, as the command line's: the model's dt within the mesh's stability
+        # limit unless given, steps to the model's t_end unless given
+        plan = resolve_run(model, mesh, run_values, dt=given_dt, steps=given_steps)
+        step_dt, steps = plan.dt, plan.steps
+        check_budget(mesh.n_vertices, steps, 1, lim)
+        vertices = np.asarray(mesh.vertices, np.float32)
+        faces = np.asarray(mesh.faces, np.int32)
+        job.files["geometry.json"] = (json.dumps({
+            "vertices": np.round(vertices, 3).ravel().tolist(),
+            "faces": faces.ravel().tolist()}).encode(), "application/json")
         u = u0
         wall = 0.0
         for i in range(SEGMENTS):
