@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import warnings
 from pathlib import Path
+from typing import Any
 
 from morphogen.cli import options
 from morphogen.errors import MorphogenError, MorphogenWarning
@@ -39,29 +40,35 @@ DEFAULTS = {"size": [64, 64], "cmap": "viridis"}
 
 
 def run(args: argparse.Namespace) -> int:
+    from morphogen.models.registry import load_model
+    from morphogen.runs.atlas import Axis
+    from morphogen.runs.prepare import precision
+
+    model = load_model(args.model)
+    x, y = Axis.parse(args.x), Axis.parse(args.y)
+    model.parameters({x.name: 0.0, y.name: 0.0})
+    run = options.run_settings(args, "atlas", DEFAULTS)
+    with precision(run["precision"]):  # float64 for this atlas only
+        return _atlas(args, model, x, y, run)
+
+
+def _atlas(args: argparse.Namespace, model: Any, x: Any, y: Any, run: dict[str, Any]) -> int:
+    """Compute the atlas of ``run``'s settings and write its files (``run`` checked)."""
     import numpy as np
 
     from morphogen.domains.grid import Grid
-    from morphogen.models.registry import load_model
     from morphogen.patterns.classify import COLOURS
     from morphogen.render import atlas_image, colour_limits, state_image, write_png
     from morphogen.render.mosaic import frame_tiles
     from morphogen.runs.atlas import (
-        Axis,
         classify_atlas,
         compute_atlas,
         instability_report,
         plan_atlas,
         write_families,
     )
-    from morphogen.runs.prepare import set_precision
     from morphogen.util.io import check_writable_dir, ensure_writable_dir, write_json, write_npz
 
-    model = load_model(args.model)
-    x, y = Axis.parse(args.x), Axis.parse(args.y)
-    model.parameters({x.name: 0.0, y.name: 0.0})
-    run = options.run_settings(args, "atlas", DEFAULTS)
-    set_precision(run["precision"])
     grid = Grid(tuple(run["size"]), dx=run["dx"], boundary=run["boundary"],
                 stencil=run["stencil"])
     plan = plan_atlas(model, grid, x, y, params=run["params"], scheme=run["scheme"],

@@ -16,7 +16,7 @@ from morphogen.errors import MorphogenError
 from morphogen.models.model import Model
 from morphogen.runs.config import FORMAT, RunConfig
 from morphogen.runs.outputs import write_outputs
-from morphogen.runs.prepare import Prepared, prepare
+from morphogen.runs.prepare import Prepared, precision, prepare
 from morphogen.solvers.step import Noise
 from morphogen.util.io import check_run_dir, staged_dir, write_json
 
@@ -52,15 +52,17 @@ def check_ceiling(model: Model, state: np.ndarray, ceiling: float) -> None:
 def execute(config: RunConfig, out: str | Path, *, progress: bool = False) -> Solution:
     """Prepare, simulate and write ``state.npz``, ``final.png``, ``run.json`` (and an
     animation when snapshots were taken) into ``out``, replacing an earlier run there whole;
-    nothing is created unless the run succeeds."""
-    prep = prepare(config)
-    check_run_dir(out)
-    started = time.perf_counter()
-    solution = run_prepared(prep, progress=progress)
-    wall = time.perf_counter() - started
-    with staged_dir(out) as stage:
-        write_outputs(stage, prep, solution)
-        write_json(stage / "run.json", run_record(prep, solution, wall))
+    nothing is created unless the run succeeds. A float64 run computes in JAX's x64 mode for
+    its own duration only."""
+    with precision(config.precision):
+        prep = prepare(config)
+        check_run_dir(out)
+        started = time.perf_counter()
+        solution = run_prepared(prep, progress=progress)
+        wall = time.perf_counter() - started
+        with staged_dir(out) as stage:
+            write_outputs(stage, prep, solution)
+            write_json(stage / "run.json", run_record(prep, solution, wall))
     return solution
 
 

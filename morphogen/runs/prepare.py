@@ -6,6 +6,7 @@ anything is written."""
 from __future__ import annotations
 
 import math
+from contextlib import AbstractContextManager
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -64,9 +65,9 @@ def build_domain(config: RunConfig, model: Model) -> Any:
 def prepare(config: RunConfig) -> Prepared:
     """Validate and resolve everything before any output is written: the settings against
     :class:`~morphogen.runs.schema.RunSchema`, then the run's cost against
-    :mod:`morphogen.util.guard` (memory before the domain is built, steps once ``dt`` is known)."""
+    :mod:`morphogen.util.guard` (memory before the domain is built, steps once ``dt`` is known).
+    Call it, and run what it prepares, inside ``with precision(config.precision)``."""
     validate_config(asdict(config), "run settings")
-    set_precision(config.precision)
     model = load_config_model(config)
     itemsize = 8 if config.precision == "float64" else 4
     if not config.mesh:
@@ -151,10 +152,12 @@ def _mesh_fields(config: RunConfig, model: Model, mesh: Any, u0: np.ndarray,
     return (u0 if config.init is not None else mesh_u0), mesh_values
 
 
-def set_precision(precision: str) -> None:
-    """``float32`` (the default) or ``float64`` (JAX's x64 mode) for the whole process."""
+def precision(name: str) -> AbstractContextManager:
+    """The scope of a run's precision: ``float32`` (the default) or ``float64`` (JAX's x64
+    mode) inside the ``with`` block only, so a float64 run leaves later runs of the same
+    process in float32 (the process-wide switch it replaces did not)."""
     import jax
 
-    if precision not in ("float32", "float64"):
-        raise MorphogenError(f"precision must be float32 or float64, not {precision!r}")
-    jax.config.update("jax_enable_x64", precision == "float64")
+    if name not in ("float32", "float64"):
+        raise MorphogenError(f"precision must be float32 or float64, not {name!r}")
+    return jax.enable_x64(name == "float64")
