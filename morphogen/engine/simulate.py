@@ -37,6 +37,7 @@ from morphogen.engine.solve_watch import SolveWatch
 from morphogen.errors import DivergenceError, MorphogenError, MorphogenWarning, round_down
 from morphogen.models.model import Array, Model, Params
 from morphogen.solvers.auto import choose_error_controlled, choose_scheme
+from morphogen.solvers.base import Stepper, scheme_name
 from morphogen.solvers.policy import plan_run
 from morphogen.solvers.registry import ERROR_CONTROLLED, IMPLICIT_DIFFUSION
 from morphogen.solvers.stability import observed_scale
@@ -120,7 +121,8 @@ def _compiled(step: Step, block: int) -> Callable:
 
 
 @lru_cache(maxsize=32)
-def _cached_step(model: Model, domain: Any, scheme: str, noise: Noise | None, clamp) -> Step:
+def _cached_step(model: Model, domain: Any, scheme: str | Stepper, noise: Noise | None, clamp
+                 ) -> Step:
     return make_step(model, domain, scheme=scheme, noise=noise, clamp=clamp)
 
 
@@ -170,7 +172,7 @@ def simulate(
     *,
     steps: int | None = None,
     dt: float | None = None,
-    scheme: str = "euler",
+    scheme: str | Stepper = "euler",
     noise: Noise | None = None,
     clamp: tuple[float, float] | None | str = "model",
     seed: int = 0,
@@ -200,7 +202,8 @@ def simulate(
             :class:`morphogen.engine.monitors.Snapshots`).
         unsafe: skip the stability check and the early divergence detection (NaN, Inf and
             overflow are still reported).
-        scheme: a fixed-step scheme (:data:`morphogen.solvers.registry.FIXED_STEP`), ``auto``
+        scheme: a fixed-step scheme (:data:`morphogen.solvers.registry.FIXED_STEP`) by name or
+            as a :class:`~morphogen.solvers.base.Stepper` object (a user's own scheme), ``auto``
             (:func:`morphogen.solvers.auto.choose_scheme`; with ``rtol``/``atol``:
             :func:`morphogen.solvers.auto.choose_error_controlled`), ``adaptive``
             (:mod:`morphogen.solvers.adaptive`) or ``etdrk4-adaptive``
@@ -232,7 +235,7 @@ def simulate_batch(
     *,
     steps: int | None = None,
     dt: float | None = None,
-    scheme: str = "euler",
+    scheme: str | Stepper = "euler",
     noise: Noise | None = None,
     clamp: tuple[float, float] | None | str = "model",
     seed: int = 0,
@@ -261,7 +264,7 @@ def simulate_batch(
 
 
 def _drive(model, domain, u0, params, *, batched: bool, steps: int | None, dt: float | None,
-           t_end: float | None, scheme: str, noise, clamp, seed: int, every,
+           t_end: float | None, scheme: str | Stepper, noise, clamp, seed: int, every,
            max_snapshots: int, progress: bool, unsafe: bool, rtol: float | None = None,
            atol: float | None = None, on_chunk: Callable[[int], None] | None = None
            ) -> Solution:
@@ -294,7 +297,11 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int | None, dt: f
                   else choose_scheme(model, domain, p, batched=batched))
     if isinstance(clamp, str):
         clamp = model.clamp
-    if scheme in ERROR_CONTROLLED or rtol is not None or atol is not None:
+    if isinstance(scheme, Stepper) and (rtol is not None or atol is not None):
+        raise MorphogenError(f"scheme {scheme.name} is a fixed-step scheme: give dt, not "
+                             "rtol/atol")
+    if not isinstance(scheme, Stepper) and (scheme in ERROR_CONTROLLED or rtol is not None
+                                            or atol is not None):
         return _adaptive(model, domain, u, p, batched=batched, steps=steps, dt=dt,
                          scheme=scheme, noise=noise, clamp=clamp, every=every,
                          max_snapshots=max_snapshots, progress=progress, unsafe=unsafe,
@@ -316,7 +323,7 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int | None, dt: f
             model.species, members, observed_scale(u, model, p, batched),
             checkerboard=domain.kind == "grid",
             report=partial(_diverging, model, domain, p, dt, scheme)))
-    solves = SolveWatch.for_run(model, domain, p, scheme, batched)
+    solves = SolveWatch.for_run(model, domain, p, scheme_name(scheme), batched)
     t = jnp.asarray(0.0, dtype)
     done = 0
     with Monitors(*checks, solves, shots, Progress(steps, enabled=progress),
@@ -343,7 +350,7 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int | None, dt: f
         valid=(first_bad == 0) if batched else None,
         blowup_step=first_bad if batched else None,
         wall_time=time.perf_counter() - start,
-        scheme=scheme,
+        scheme=scheme_name(scheme),
         snapshot_times=[k * dt for k in snap_steps],
         warnings=[warning] if warning else [],
         dt=float(dt),
@@ -383,7 +390,8 @@ def _replay(step: Step, p: Params, dt: float, u: Array, t: Array, key: Array, n:
         yield u, t
 
 
-def _diverging(model: Model, domain: Any, p: Params, dt: float, scheme: str, chunk: Chunk,
+def _diverging(model: Model, domain: Any, p: Params, dt: float, scheme: str | Stepper,
+               chunk: Chunk,
                names: tuple[str, ...], why: str) -> DivergenceError:
     """The error that stops a diverging fixed-step run, with a ``dt`` to retry with."""
     try:
@@ -392,7 +400,7 @@ def _diverging(model: Model, domain: Any, p: Params, dt: float, scheme: str, chu
         limit = float("inf")
     suggested = limit if limit < dt else 0.5 * dt
     alternative = ""
-    if scheme in IMPLICIT_DIFFUSION:
+    if scheme_name(scheme) in IMPLICIT_DIFFUSION:
         # the limit of these schemes comes from the reaction at the ground state; a reaction
         # that grows stiff along the run (a^2/h as h decays) can need an explicit step
         try:

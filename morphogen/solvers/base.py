@@ -100,20 +100,30 @@ _STEPPERS: dict[str, type[Stepper]] = {}
 
 
 class Stepper(ABC):
-    """A fixed-step scheme (see the module docstring); subclasses set ``name`` to a row of
-    :data:`morphogen.solvers.registry.SCHEMES` and register themselves under it."""
+    """A fixed-step scheme (see the module docstring).
+
+    The package's subclasses set ``name`` to a row of
+    :data:`morphogen.solvers.registry.SCHEMES` and register themselves under it. A user's
+    subclass (any other name or module) is not registered: pass an instance wherever a scheme
+    name is taken (``make_step``, ``max_stable_dt``, ``simulate``); it is an explicit scheme
+    unless it overrides :attr:`info` (e.g. ``implicit_diffusion=True``)."""
 
     name: ClassVar[str]
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        if "name" in cls.__dict__:
+        row = SCHEMES.get(cls.__dict__.get("name", ""))
+        if row is not None and row.module == cls.__module__:
             _STEPPERS[cls.name] = cls
 
     @property
     def info(self) -> SchemeInfo:
-        """The scheme's registry row."""
-        return SCHEMES[self.name]
+        """The scheme's registry row (a user's scheme: an explicit fixed-step row)."""
+        row = SCHEMES.get(self.name)
+        if row is not None and row.module == type(self).__module__:
+            return row
+        return SchemeInfo(self.name, 0, f"{self.name}, a scheme given as an object",
+                          type(self).__module__)
 
     @property
     def order(self) -> int:
@@ -139,12 +149,20 @@ class Stepper(ABC):
         """
 
 
-def stepper(name: str) -> Stepper:
-    """The fixed-step scheme called ``name``, imported from the module its registry row names.
+def scheme_name(scheme: str | Stepper) -> str:
+    """The name of a scheme given by name or as a :class:`Stepper` object."""
+    return scheme.name if isinstance(scheme, Stepper) else scheme
+
+
+def stepper(name: str | Stepper) -> Stepper:
+    """The fixed-step scheme called ``name``, imported from the module its registry row names
+    (a :class:`Stepper` object is itself).
 
     Raises:
         MorphogenError: an unknown name, or a scheme chosen per run (``adaptive``, ``auto``).
     """
+    if isinstance(name, Stepper):
+        return name
     info = SCHEMES.get(name)
     if info is None:
         raise MorphogenError(f"unknown scheme {name!r}; use one of {', '.join(FIXED_STEP)}")

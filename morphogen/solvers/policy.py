@@ -45,6 +45,7 @@ from dataclasses import dataclass
 from morphogen.domains.base import Domain
 from morphogen.errors import MorphogenError, UnstableTimeStepError
 from morphogen.models.model import Model, Params
+from morphogen.solvers.base import Stepper, scheme_name
 from morphogen.solvers.registry import SCHEMES
 
 
@@ -61,7 +62,7 @@ class RunPlan:
         reason: one line saying why this ``dt``.
     """
 
-    scheme: str
+    scheme: str | Stepper
     dt: float
     steps: int
     t_end: float
@@ -81,10 +82,11 @@ def step_count(t_end: float, dt: float) -> int:
     return max(1, round(ratio))
 
 
-def resolve_scheme(model: Model, domain: Domain, params: Params, scheme: str = "euler", *,
+def resolve_scheme(model: Model, domain: Domain, params: Params,
+                   scheme: str | Stepper = "euler", *,
                    rtol: float | None = None, atol: float | None = None,
                    batched: bool = False, population: bool = False,
-                   where: str = "search") -> str:
+                   where: str = "search") -> str | Stepper:
     """``scheme`` with ``auto`` resolved (step 1 of :func:`plan_run`); for a ``population`` (or
     ``batched`` parameters) as a population advances (the error-controlled schemes refused,
     naming ``where``)."""
@@ -103,7 +105,7 @@ def resolve_scheme(model: Model, domain: Domain, params: Params, scheme: str = "
     return choose_scheme(model, domain, params)
 
 
-def scheme_limit(model: Model, domain: Domain, params: Params, scheme: str, *,
+def scheme_limit(model: Model, domain: Domain, params: Params, scheme: str | Stepper, *,
                  batched: bool = False) -> float:
     """:func:`morphogen.solvers.step.max_stable_dt` of ``params`` cast as the engine casts them
     (``jnp.result_type(float)``: float32 unless x64 is on), so that a step at the limit passes
@@ -118,9 +120,12 @@ def scheme_limit(model: Model, domain: Domain, params: Params, scheme: str, *,
     return float(max_stable_dt(model, domain, cast, scheme, batched=batched))
 
 
-def default_dt(model: Model, scheme: str, limit: float) -> tuple[float, str]:
-    """Step 3 of :func:`plan_run` without a given ``dt``: ``(dt, reason)``."""
-    if scheme in SCHEMES and SCHEMES[scheme].implicit_diffusion and SCHEMES[scheme].fixed_step:
+def default_dt(model: Model, scheme: str | Stepper, limit: float) -> tuple[float, str]:
+    """Step 3 of :func:`plan_run` without a given ``dt``: ``(dt, reason)``; a scheme given as a
+    :class:`~morphogen.solvers.base.Stepper` object by its :attr:`~Stepper.info`."""
+    info = scheme.info if isinstance(scheme, Stepper) else SCHEMES.get(scheme)
+    scheme = scheme_name(scheme)
+    if info is not None and info.implicit_diffusion and info.fixed_step:
         if math.isfinite(limit):
             return float(limit), f"{scheme}'s stability limit (diffusion implicit or exact)"
         return float(model.dt), f"the model's dt ({scheme} reports no limit here)"
@@ -134,7 +139,7 @@ def plan_run(
     domain: Domain,
     params: Params,
     *,
-    scheme: str = "euler",
+    scheme: str | Stepper = "euler",
     dt: float | None = None,
     steps: int | None = None,
     t_end: float | None = None,
@@ -169,7 +174,7 @@ def plan_run(
         if not (math.isfinite(dt) and dt > 0):
             raise MorphogenError(f"dt must be a positive number, got {dt:g}")
         if dt > limit and not unsafe:
-            raise UnstableTimeStepError(dt, limit, scheme)
+            raise UnstableTimeStepError(dt, limit, scheme_name(scheme))
         reason = "given"
     else:
         dt, reason = default_dt(model, scheme, limit)

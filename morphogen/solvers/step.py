@@ -32,7 +32,7 @@ import numpy as np
 from morphogen.domains.base import Domain
 from morphogen.errors import MorphogenError, UnstableTimeStepError
 from morphogen.models.model import Array, Model, Params
-from morphogen.solvers.base import stepper
+from morphogen.solvers.base import Stepper, scheme_name, stepper
 from morphogen.solvers.registry import ERROR_CONTROLLED
 
 
@@ -77,7 +77,7 @@ def make_step(
     model: Model,
     domain: Domain,
     *,
-    scheme: str = "euler",
+    scheme: str | Stepper = "euler",
     noise: Noise | None = None,
     clamp: tuple[float, float] | None = None,
 ) -> Step:
@@ -126,7 +126,7 @@ def _noise_mask(model: Model, noise: Noise | None) -> np.ndarray:
 
 
 def max_stable_dt(
-    model: Model, domain: Domain, params: Params, scheme: str = "euler", *,
+    model: Model, domain: Domain, params: Params, scheme: str | Stepper = "euler", *,
     batched: bool = False
 ) -> float:
     """Largest stable explicit ``dt``: diffusion and the reaction's linearisation.
@@ -149,13 +149,13 @@ def max_stable_dt(
 
 
 def check_stability(
-    model: Model, domain: Domain, params: Params, dt: float, scheme: str = "euler", *,
+    model: Model, domain: Domain, params: Params, dt: float, scheme: str | Stepper = "euler", *,
     batched: bool = False,
 ) -> float:
     """Raise :class:`UnstableTimeStepError` if ``dt`` exceeds :func:`max_stable_dt`."""
     dt_max = max_stable_dt(model, domain, params, scheme, batched=batched)
     if dt > dt_max:
-        raise UnstableTimeStepError(dt, dt_max, scheme)
+        raise UnstableTimeStepError(dt, dt_max, scheme_name(scheme))
     return dt_max
 
 
