@@ -59,6 +59,11 @@ def test_models_lists_the_whole_library(client):
     assert names == list(get_model("gray-scott").params)
     for p in gs["params"]:
         assert p["min"] <= p["value"] <= p["max"]
+    # the scheme menu and the page's per-scheme cost table are the registry's rows
+    from morphogen.solvers.registry import LIVE, SCHEMES
+    assert data["schemes"] == list(LIVE)
+    assert data["scheme_costs"] == {n: {"periodic": SCHEMES[n].live_cost[0],
+                                        "neumann": SCHEMES[n].live_cost[1]} for n in LIVE}
 
 
 def test_live_frames_equal_the_engine_and_sliders_never_recompile(client):

@@ -43,7 +43,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from morphogen.solvers.registry import LIVE, NAMES, POPULATION
+from morphogen.solvers.registry import (
+    ERROR_CONTROLLED,
+    IMPLICIT_DIFFUSION,
+    LIVE,
+    NAMES,
+    POPULATION,
+    SCHEMES,
+)
 
 REQUIRED: Any = object()
 """Default of a setting that every run must give (``model``)."""
@@ -121,9 +128,10 @@ class Setting:
         return self.label or self.name
 
 
-_SCHEME_HELP = ("time stepper (imex, imex1, etdrk4: stiff diffusion on grids; adaptive: "
-                "error-controlled steps, one run at a time; auto: imex when stiff, else euler; "
-                "see docs/schemes.md)")
+_SCHEME_HELP = (f"time stepper ({', '.join(IMPLICIT_DIFFUSION)}: stiff diffusion on grids; "
+                f"{', '.join(ERROR_CONTROLLED)}: error-controlled steps, one run at a time; "
+                f"auto: {SCHEMES['auto'].summary}; see docs/schemes.md)")
+"""``--scheme``'s help, its names from the scheme registry."""
 
 SETTINGS: tuple[Setting, ...] = (
     Setting("model", "str", "Annotated[StrictStr, Field(min_length=1)]", REQUIRED),

@@ -38,6 +38,9 @@ class SchemeInfo:
         live: offered by the web app's live view.
         error_control: its steps are chosen by an error controller from ``--rtol/--atol``
             (:mod:`morphogen.engine.adaptive_loop`).
+        live_cost: the cost of one live-view step relative to Euler's, on periodic and on
+            no-flux boundaries (measured on the server: Gray-Scott 256², docs/web.md), which
+            the web page uses only to warn before a set-up that could not keep up.
     """
 
     name: str
@@ -49,20 +52,22 @@ class SchemeInfo:
     population: bool = True
     live: bool = True
     error_control: bool = False
+    live_cost: tuple[float, float] = (1.0, 1.0)
 
 
 SCHEMES: dict[str, SchemeInfo] = {
     s.name: s
     for s in (
         SchemeInfo("euler", 1, "explicit (forward) Euler, the seeds' scheme",
-                   "morphogen.solvers.explicit"),
-        SchemeInfo("rk4", 4, "classic explicit Runge-Kutta 4", "morphogen.solvers.explicit"),
+                   "morphogen.solvers.explicit", live_cost=(1.0, 1.5)),
+        SchemeInfo("rk4", 4, "classic explicit Runge-Kutta 4", "morphogen.solvers.explicit",
+                   live_cost=(13.0, 14.0)),
         SchemeInfo("imex1", 1, "semi-implicit Euler: implicit diffusion, explicit reaction",
-                   "morphogen.solvers.imex", implicit_diffusion=True),
+                   "morphogen.solvers.imex", implicit_diffusion=True, live_cost=(10.0, 13.0)),
         SchemeInfo("imex", 2, "ARS(2,2,2) implicit-explicit Runge-Kutta",
-                   "morphogen.solvers.imex", implicit_diffusion=True),
+                   "morphogen.solvers.imex", implicit_diffusion=True, live_cost=(14.0, 38.0)),
         SchemeInfo("etdrk4", 4, "exponential time differencing RK4 (Cox-Matthews)",
-                   "morphogen.solvers.etd", implicit_diffusion=True),
+                   "morphogen.solvers.etd", implicit_diffusion=True, live_cost=(26.0, 57.0)),
         SchemeInfo("adaptive", 5, "Tsit5 5(4) with error control (--rtol, --atol)",
                    "morphogen.solvers.adaptive", fixed_step=False, population=False,
                    live=False, error_control=True),

@@ -6,7 +6,7 @@ from fastapi import APIRouter, Request
 from fastapi.responses import Response
 
 from morphogen.errors import MorphogenError
-from morphogen.solvers.registry import LIVE
+from morphogen.solvers.registry import LIVE, SCHEMES
 from morphogen.web.catalog import describe, library_names, resolve_model
 from morphogen.web.limits import JSONBody
 from morphogen.web.live import STEP_CHOICES
@@ -38,6 +38,8 @@ async def models():
         "init_kinds": list(INITIAL_KINDS),
         "step_choices": list(STEP_CHOICES),
         "schemes": list(LIVE),
+        "scheme_costs": {n: dict(zip(("periodic", "neumann"), SCHEMES[n].live_cost,
+                                     strict=True)) for n in LIVE},
     }
 
 

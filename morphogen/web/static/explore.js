@@ -49,6 +49,7 @@ export class Explore {
     fillSelect(this.$('ex-steps'), info.step_choices.map(String));
     fillSelect(this.$('ex-init'), info.init_kinds);
     fillSelect(this.$('ex-scheme'), info.schemes, 'euler');
+    this.schemeCosts = info.scheme_costs;
     this.$('ex-equations').value = EXAMPLE;
     this.canvas = this.$('ex-canvas');
     this.ctx = this.canvas.getContext('2d');
@@ -446,7 +447,7 @@ export class Explore {
       delete view.steps_per_frame;
     }
     const steps = view.steps_per_frame ?? MIN_DEFAULT_STEPS;
-    const est = frameEstimate(this.seen, scheme, boundary, size * h, steps);
+    const est = frameEstimate(this.seen, scheme, boundary, size * h, steps, this.schemeCosts);
     if (est !== null && est > FRAME_BUDGET_S) {
       showError(this.$('ex-error'), `${scheme} at ${size} × ${h} with ${steps} steps per frame `
         + `would take about ${est.toFixed(0)} s a frame, over the server's ${FRAME_BUDGET_S} s limit: `

@@ -42,21 +42,18 @@ export function settingsOf(state, spec) {
   };
 }
 
-// Cost of one step of each scheme relative to explicit Euler on the same grid, measured on
-// the server (Gray-Scott 256², docs/web.md: periodic, and no flux, whose implicit solves are
-// cosine transforms), used only to warn before a set-up that could not keep up.
-const RELATIVE_COST = {
-  periodic: { euler: 1, rk4: 13, imex1: 10, imex: 14, etdrk4: 26 },
-  neumann: { euler: 1.5, rk4: 14, imex1: 13, imex: 38, etdrk4: 57 },
-};
-const cost = (scheme, boundary) => (RELATIVE_COST[boundary] || RELATIVE_COST.periodic)[scheme] || 1;
+// Cost of one step of each scheme relative to explicit Euler on the same grid, from the
+// server's scheme registry (`/api/models`' `scheme_costs`: periodic, and no flux, whose implicit
+// solves are cosine transforms), used only to warn before a set-up that could not keep up.
+const cost = (costs, scheme, boundary) => (costs?.[scheme]?.[boundary]) || 1;
 
 // Seconds per frame to expect from `scheme` on `boundary` at `cells` cells and `steps` steps per
 // frame, from the server's time per cell-step of the frames seen so far (null before any frame).
-export function frameEstimate(seen, scheme, boundary, cells, steps) {
+export function frameEstimate(seen, scheme, boundary, cells, steps, costs) {
   if (!seen) return null;
-  const perCellStep = seen.ms / 1000 / (seen.cells * seen.steps) / cost(seen.scheme, seen.boundary);
-  return perCellStep * cost(scheme, boundary) * cells * steps;
+  const perCellStep = seen.ms / 1000 / (seen.cells * seen.steps)
+    / cost(costs, seen.scheme, seen.boundary);
+  return perCellStep * cost(costs, scheme, boundary) * cells * steps;
 }
 
 // The "Web page" button: the live view as one HTML file that runs without the server (WebGL2;
