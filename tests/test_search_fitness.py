@@ -87,12 +87,6 @@ def test_scores_do_not_depend_on_the_batch():
     np.testing.assert_allclose(whole, parts, rtol=1e-6)  # batches of 5 vs 2 + 3: two programs
 
 
-def test_radial_spectrum_peaks_at_the_wavenumber():
-    s = np.asarray(fit.radial_spectrum(jnp.asarray(mode(6, 8), jnp.float32)))
-    assert s.argmax() + 1 == 10  # |k| = sqrt(6^2 + 8^2)
-    assert s.sum() == pytest.approx(1.0, rel=1e-5)
-
-
 def test_target_statistics_ignore_translation_and_rotation():
     rng = np.random.default_rng(3)
     spots = np.zeros((N, N))

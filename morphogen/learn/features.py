@@ -33,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.models.model import Array
+from morphogen.patterns.spectrum import power_spectrum
 
 
 def pad2d(x: Array, width: int, periodic: bool) -> Array:
@@ -176,7 +177,7 @@ class SpectrumFeatures:
         if not periodic:
             win = np.outer(np.hanning(h), np.hanning(w))
             centred = centred * (win / np.sqrt(np.mean(win**2)))
-        power = jnp.abs(jnp.fft.fft2(centred)) ** 2 / (h * w)
+        power = power_spectrum(centred, centre=False) / (h * w)  # centred before the window
         ky = np.fft.fftfreq(h)[:, None]
         kx = np.fft.fftfreq(w)[None, :]
         ring = np.floor(np.hypot(ky, kx) / 0.5 * self.bins).astype(int)

@@ -1,7 +1,8 @@
 """A pattern's signature and the distance between two: what ``match`` compares.
 
 The signature of a field is built from the simulator's own descriptors
-(:func:`morphogen.patterns.descriptors.describe` and ``radial_spectrum``; families by
+(:func:`morphogen.patterns.descriptors.describe` and
+:func:`~morphogen.patterns.spectrum.radial_spectrum`; families by
 :func:`morphogen.patterns.classify.classify`), after a normalisation applied alike
 to a picture and to a simulated species, so that what a picture does not fix does not count:
 
@@ -88,7 +89,7 @@ def normalise(f: np.ndarray) -> np.ndarray:
 
 def spectrum(f: np.ndarray) -> np.ndarray:
     """Radially averaged power spectrum ``P(r)`` of a periodic field (the descriptors' own)."""
-    from morphogen.patterns.descriptors import radial_spectrum
+    from morphogen.patterns.spectrum import radial_spectrum
 
     return np.asarray(_jit(radial_spectrum)(np.asarray(f, np.float32)), np.float64)
 
@@ -244,16 +245,16 @@ def distance(a: Signature, b: Signature) -> float:
     """Weighted distance of two signatures (wavelength excluded: the grid spacing fits it).
 
     ``family`` is 1 when the families differ, ``histogram`` the earth mover's distance of the
-    intensity histograms (:func:`morphogen.search.fitness.wasserstein_1d`'s definition),
+    intensity histograms (:func:`morphogen.patterns.spectrum.wasserstein_1d`),
     ``profile`` the mean absolute difference of the log spectrum profiles (in decades).
     """
+    from morphogen.patterns.spectrum import wasserstein_1d
     terms = {
         "family": float(a.family != b.family),
         "spot_index": abs(a.spot_index - b.spot_index),
         "coherence": abs(a.coherence - b.coherence),
         "covered": abs(a.covered - b.covered),
-        "histogram": float(np.sum(np.abs(np.cumsum(a.histogram) - np.cumsum(b.histogram)))
-                           / HIST_BINS),
+        "histogram": float(wasserstein_1d(a.histogram, b.histogram)),
         "profile": float(np.mean(np.abs(a.profile - b.profile))),
     }
     return float(sum(WEIGHTS[k] * v for k, v in terms.items()))

@@ -48,6 +48,8 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from morphogen.patterns.spectrum import power_spectrum, radial_spectrum
+
 Array = jax.Array
 
 SPATIAL = ("level", "range", "contrast", "wavelength", "peak_share", "orientation", "order",
@@ -62,20 +64,6 @@ def _frequencies(h: int, w: int) -> tuple[Array, Array]:
     qy = jnp.fft.fftfreq(h)[:, None] * jnp.ones((1, w))
     qx = jnp.fft.fftfreq(w)[None, :] * jnp.ones((h, 1))
     return qy, qx
-
-
-def radial_spectrum(f: Array) -> Array:
-    """Radially averaged power spectrum ``P(r)``, ``r = 0 … N/2`` (``N = min(H, W)``)."""
-    h, w = f.shape
-    n = min(h, w)
-    qy, qx = _frequencies(h, w)
-    ring = jnp.round(n * jnp.sqrt(qx**2 + qy**2)).astype(jnp.int32)
-    power = jnp.abs(jnp.fft.fft2(f - f.mean())) ** 2
-    rings = n // 2 + 1
-    ring = jnp.minimum(ring, rings)
-    total = jnp.zeros(rings + 1).at[ring].add(power)
-    count = jnp.zeros(rings + 1).at[ring].add(1.0)
-    return (total / jnp.maximum(count, 1.0))[:rings]
 
 
 def euler_characteristic(mask: Array) -> Array:
@@ -118,7 +106,7 @@ def describe(f: Array) -> dict[str, Array]:
     shell = spectrum.at[0].set(0.0)
     peak = jnp.maximum(jnp.argmax(shell), 1)
     wavelength = n / peak
-    power = jnp.abs(jnp.fft.fft2(f - f.mean())) ** 2
+    power = power_spectrum(f)
     qy, qx = _frequencies(h, w)
     grid = jnp.maximum(jnp.abs(qx), jnp.abs(qy)) >= 0.375
     total = jnp.maximum(power.sum(), _EPS)

@@ -27,6 +27,7 @@ import numpy as np
 
 from morphogen.engine.monitors import OVERFLOW
 from morphogen.errors import MorphogenError
+from morphogen.patterns.spectrum import spectrum_distribution, wasserstein_1d
 from morphogen.util.io import check_image
 
 Array = Any
@@ -119,36 +120,6 @@ def dirichlet_fitness(periodic: bool = True, flat_tol: float = 1e-3) -> Callable
 # --- target image -----------------------------------------------------------------------------
 
 
-def radial_spectrum(field: Array, bins: int | None = None) -> Array:
-    """Radially averaged power spectrum of a 2D field, normalised to sum 1.
-
-    The field is standardised (mean 0, standard deviation 1) first; ``P(k) = |FFT|^2`` is
-    averaged over rings of integer ``|k|`` (in cycles per domain), ``k = 1 .. bins``. The
-    magnitude of the FFT ignores translations (exactly, on a periodic grid) and averaging over
-    rings ignores rotations.
-
-    Args:
-        field: shape ``(H, W)``.
-        bins: number of rings, ``min(H, W) // 2`` by default.
-
-    Returns:
-        shape ``(bins,)``.
-    """
-    h, w = field.shape
-    bins = bins or min(h, w) // 2
-    z = field - jnp.mean(field)
-    z = z / jnp.maximum(jnp.std(z), 1e-12)
-    power = jnp.abs(jnp.fft.fft2(z)) ** 2
-    ky = np.fft.fftfreq(h) * h
-    kx = np.fft.fftfreq(w) * w
-    ring = np.rint(np.hypot(ky[:, None], kx[None, :])).astype(np.int32)
-    ring = np.where((ring >= 1) & (ring <= bins), ring - 1, bins)
-    sums = jnp.zeros(bins + 1, power.dtype).at[ring].add(power)[:bins]
-    counts = np.bincount(ring.ravel(), minlength=bins + 1)[:bins]
-    mean = sums / np.maximum(counts, 1)
-    return mean / jnp.maximum(jnp.sum(mean), 1e-30)
-
-
 def intensity_histogram(field: Array, bins: int = 32) -> Array:
     """Histogram of the field's values rescaled to ``[0, 1]`` by its own min and max, shape
     ``(bins,)``, summing to 1. Blind to position, orientation and affine changes of scale."""
@@ -159,15 +130,10 @@ def intensity_histogram(field: Array, bins: int = 32) -> Array:
     return counts / field.size
 
 
-def wasserstein_1d(p: Array, q: Array) -> Array:
-    """Earth mover's distance between two histograms on the same ``n`` equal bins, in units
-    of the whole axis: ``sum |CDF_p - CDF_q| / n``, between 0 and 1."""
-    return jnp.sum(jnp.abs(jnp.cumsum(p) - jnp.cumsum(q))) / p.shape[0]
-
-
 def pattern_statistics(field: Array, hist_bins: int = 32) -> tuple[Array, Array]:
-    """``(radial_spectrum, intensity_histogram)`` of a 2D field ``(H, W)``."""
-    return radial_spectrum(field), intensity_histogram(field, hist_bins)
+    """``(spectrum_distribution, intensity_histogram)`` of a 2D field ``(H, W)``
+    (:func:`morphogen.patterns.spectrum.spectrum_distribution`)."""
+    return spectrum_distribution(field), intensity_histogram(field, hist_bins)
 
 
 def target_distance(field: Array, target: tuple[Array, Array]) -> Array:
