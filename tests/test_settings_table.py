@@ -209,3 +209,23 @@ def test_evolve_requests_carry_dx_and_stencil():
     assert problem.dx == 0.5 and problem.stencil == 9
     plain, *_ = build({"model": {"library": "gray-scott"}, "size": 16, "steps": 2}, Limits())
     assert plain.dx == 1.0 and plain.stencil is None and plain.boundary == "periodic"
+
+
+def test_a_search_problem_takes_the_tables_defaults_and_checks():
+    """The search's record of run settings (:class:`Problem`) has the table's default for each
+    setting it shares with it (a search's own grid, ``SEARCH_SIZE``, apart), and refuses what
+    the table refuses."""
+    from morphogen.search.evaluate import SEARCH_SIZE, Problem
+    from morphogen.search.genes import Gene
+
+    shared = [f for f in dataclasses.fields(Problem) if f.name in BY_NAME and f.name != "model"]
+    assert {f.name for f in shared} >= {"dx", "dt", "steps", "time", "scheme", "seed", "init",
+                                        "size", "clamp", "init_options", "params", "preset"}
+    problem = Problem(model="gray-scott", genes=(Gene("F", 0.02, 0.06),))
+    for f in shared:
+        want = tuple(SEARCH_SIZE) if f.name == "size" else default(f.name)
+        got = getattr(problem, f.name)
+        assert (dict(got) if isinstance(got, dict) else got) == want, f.name
+    for bad in ({"dt": -1.0}, {"time": float("nan")}, {"steps": 0}):
+        with pytest.raises(MorphogenError):
+            Problem(model="gray-scott", genes=(Gene("F", 0.02, 0.06),), **bad)

@@ -10,7 +10,7 @@ from morphogen.cli import options
 from morphogen.errors import MorphogenError
 from morphogen.models.registry import load_model
 from morphogen.search.archive import Archive
-from morphogen.search.evaluate import FITNESS_KINDS, Problem, policy_problem
+from morphogen.search.evaluate import FITNESS_KINDS, SEARCH_SIZE, Problem, policy_problem
 from morphogen.search.executors import EXECUTORS, make_executor, split_notice
 from morphogen.search.fitness import ask_selection
 from morphogen.search.genes import Gene, check_genes, preset_genes
@@ -78,7 +78,7 @@ RESUME_OPTIONS = ("generations", "archive", "executor", "address", "batches", "q
 """The options that apply to a resumed run (besides ``--resume`` itself)."""
 GENERATIONS = 10
 """Generations of a new run unless ``--generations`` says otherwise."""
-DEFAULTS = {"size": [128, 128], "cmap": "viridis"}
+DEFAULTS = {"size": list(SEARCH_SIZE), "cmap": "viridis"}
 """``evolve``'s own defaults of run settings (the others are the table's)."""
 
 

@@ -153,4 +153,4 @@ def optimise(
     return SearchResult(
         best_params={g.name: float(v) for g, v in zip(genes_, best, strict=True)},
         best_fitness=float(state.best_fitness), genomes=np.stack(all_genomes),
-        fitness=np.stack(all_fitness), problem=problem, state=state)
+        fitness=np.stack(all_fitness), problem=evaluator.problem, state=state)

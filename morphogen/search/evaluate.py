@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
-from functools import lru_cache
+from functools import lru_cache, partial
 from typing import Any
 
 import jax
@@ -38,6 +38,7 @@ from morphogen.engine.simulate import integrate
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model
 from morphogen.runs.policy import resolve_run
+from morphogen.runs.settings import default
 from morphogen.search import fitness as fit
 from morphogen.search.genes import Gene, check_genes
 from morphogen.search.networks.cluster import cluster_head_fitness
@@ -46,6 +47,9 @@ from morphogen.solvers.step import make_step, max_stable_dt
 FITNESS_KINDS = ("dirichlet", "target", "cluster", "user")
 CHUNK = 250
 """Steps per compiled chunk between progress updates."""
+SEARCH_SIZE = (128, 128)
+"""A search's default grid (``evolve``, ``fit``, ``mg.optimise``): a population of 20 on the
+single run's 256² would cost four times as much per generation."""
 
 
 @dataclass(frozen=True)
@@ -62,15 +66,21 @@ class Problem:
         genes: the searched parameters (scalars).
         preset, params: fixed parameter values (a preset, then overrides; numbers or
             expressions of ``x, y, z``, resolved with the model's default values).
-        size, dx, boundary, stencil: the grid (:class:`morphogen.domains.grid.Grid`).
-        dt, steps, scheme: time stepping (``scheme`` any fixed-step scheme or ``auto``, chosen
-            once from the base parameters; ``adaptive`` is refused, since the population
-            advances with one ``dt``); :func:`policy_problem` fills ``dt`` and ``steps`` from
-            the run policy where the user gave none; ``clamp`` is ``"model"`` (the model's own
-            bounds), ``None`` or ``[lo, hi]`` (Skaggs §3.2 clamps to ``[0, 5]``).
+        size, dx, boundary, stencil: the grid (:class:`morphogen.domains.grid.Grid`); a
+            search's own default grid is :data:`SEARCH_SIZE`, smaller than a single run's.
+        dt, steps, time, scheme: time stepping (``scheme`` any fixed-step scheme or ``auto``,
+            chosen once from the base parameters; ``adaptive`` is refused, since the population
+            advances with one ``dt``). ``None`` is the run policy's, as for every front end:
+            :func:`resolve_problem` (which the :class:`Evaluator` calls) fills ``dt`` and
+            ``steps`` from ``time`` or the model's ``t_end``; ``clamp`` is ``"model"`` (the
+            model's own bounds), ``None`` or ``[lo, hi]`` (Skaggs §3.2 clamps to ``[0, 5]``).
         seed, init, init_options: the initial condition
-            (:func:`morphogen.engine.initial.make_initial`); every individual starts from the same
-            one (up to its own ground state).
+            (:func:`morphogen.engine.initial.make_initial`; ``init=None``: the model's own);
+            every individual starts from the same one (up to its own ground state).
+
+    The run settings' defaults and checks are the settings table's
+    (:data:`morphogen.runs.settings.SETTINGS`; ``tests/test_settings_table.py``), except
+    ``size``.
         fitness: one of :data:`FITNESS_KINDS`; ``target`` the image for ``"target"``;
             ``flat_tol`` the relative spread below which a state counts as uniform.
     """
@@ -80,17 +90,18 @@ class Problem:
     model_source: str | None = None
     preset: str | None = None
     params: Mapping[str, Any] = field(default_factory=dict)
-    size: tuple[int, ...] = (128, 128)
-    dx: float = 1.0
-    boundary: Any = "periodic"
-    stencil: int | str | None = None
-    dt: float = 1.0
-    steps: int = 1000
-    scheme: str = "euler"
-    clamp: Any = "model"
-    seed: int = 0
-    init: str = "skaggs"
-    init_options: Mapping[str, Any] = field(default_factory=dict)
+    size: tuple[int, ...] = SEARCH_SIZE
+    dx: float = default("dx")
+    boundary: Any = default("boundary")
+    stencil: int | str | None = default("stencil")
+    dt: float | None = default("dt")
+    steps: int | None = default("steps")
+    time: float | None = default("time")
+    scheme: str = default("scheme")
+    clamp: Any = default("clamp")
+    seed: int = default("seed")
+    init: str | None = default("init")
+    init_options: Mapping[str, Any] = field(default_factory=partial(default, "init_options"))
     fitness: str = "dirichlet"
     target: str | None = None
     flat_tol: float = 1e-3
@@ -102,10 +113,12 @@ class Problem:
             )
         if self.fitness == "target" and not self.target:
             raise MorphogenError("--fitness target needs --target IMAGE")
-        if self.steps < 1:
+        if self.steps is not None and self.steps < 1:
             raise MorphogenError(f"steps must be >= 1, got {self.steps}")
-        if not (np.isfinite(self.dt) and self.dt > 0):
-            raise MorphogenError(f"dt must be a positive number, got {self.dt}")
+        for name in ("dt", "time"):
+            value = getattr(self, name)
+            if value is not None and not (np.isfinite(value) and value > 0):
+                raise MorphogenError(f"{name} must be a positive number, got {value}")
 
     def to_dict(self) -> dict[str, Any]:
         data = asdict(self)
@@ -139,18 +152,26 @@ def problem_base(problem: Problem, model: Model | None = None
     return model, domain, resolve_params(model, domain, values)
 
 
+def resolve_problem(problem: Problem, model: Model | None = None) -> Problem:
+    """``problem`` with every setting concrete: ``init=None`` the model's, and ``dt`` and
+    ``steps`` the run policy's for what was given (:func:`morphogen.runs.policy.resolve_run`
+    on the base parameters, as a population: the model's ``dt`` within the scheme's limit, a
+    given ``dt`` checked against it, ``steps`` from ``time`` or the model's ``t_end``): the
+    search's door to the policy every front end uses. A problem already concrete is returned
+    as it is."""
+    if problem.dt is not None and problem.steps is not None and problem.init is not None:
+        return problem
+    model, domain, base = problem_base(problem, model)
+    plan = resolve_run(model, domain, base, scheme=problem.scheme, dt=problem.dt,
+                       steps=problem.steps, t_end=problem.time, population=True)
+    return replace(problem, dt=plan.dt, steps=plan.steps, init=problem.init or model.init)
+
+
 def policy_problem(problem: Problem, *, dt: float | None = None, steps: int | None = None,
                    time: float | None = None, model: Model | None = None) -> Problem:
-    """``problem`` with the ``dt`` and ``steps`` the run policy gives for what the user gave
-    (:func:`morphogen.runs.policy.resolve_run` on the base parameters, as a population: the
-    model's ``dt`` within the scheme's limit, a given ``dt`` checked against it, ``steps`` from
-    ``time`` or the model's ``t_end``): the search's door to the policy every front end uses."""
-    from morphogen.runs.policy import resolve_run
-
-    model, domain, base = problem_base(problem, model)
-    plan = resolve_run(model, domain, base, scheme=problem.scheme, dt=dt, steps=steps,
-                       t_end=time, population=True)
-    return replace(problem, dt=plan.dt, steps=plan.steps)
+    """``problem`` with ``dt``, ``steps`` and ``time`` as given (``None``: the run policy's),
+    resolved (:func:`resolve_problem`)."""
+    return resolve_problem(replace(problem, dt=dt, steps=steps, time=time), model)
 
 
 def load_problem_model(problem: Problem) -> Model:
@@ -187,9 +208,9 @@ class Evaluator:
 
     def __init__(self, problem: Problem, *, batch_size: int | None = None,
                  model: Model | None = None):
-        self.problem = problem
         self.batch_size = batch_size
         self.model = load_problem_model(problem) if model is None else model
+        self.problem = problem = resolve_problem(problem, self.model)
         check_genes(problem.genes, list(self.model.params))
         _, self.domain, self.base = problem_base(problem, self.model)
         # the run policy: auto resolved once for the population, dt checked against its limit

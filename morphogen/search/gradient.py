@@ -91,8 +91,9 @@ class GradientEvaluator:
         require_target(problem)
         if len(problem.size) != 2:
             raise MorphogenError("gradient fitting compares images: use a 2D grid (--size HxW)")
-        self.problem = problem
         self.base = Evaluator(replace(problem, fitness="dirichlet", target=None))
+        # dt, steps and init as the run policy resolved them for the base evaluator
+        self.problem = replace(self.base.problem, fitness=problem.fitness, target=problem.target)
         self.loss: TextureLoss = texture_loss(target_field_image(problem.target),
                                               make_extractor(features), n_rot)
         self._value_and_grad = self._compile(chunk)
