@@ -186,3 +186,26 @@ def test_network_runs_list_only_valid_networks_and_label_uniform_fields(tmp_path
     # a generation with no valid network lists none and counts them all
     run._show(2, pop, np.full(4, INVALID, np.float32))
     assert run.to_json()["best"] == [] and run.to_json()["invalid"] == 4
+
+
+def test_a_run_waiting_for_favourites_comes_back_after_a_server_restart(tmp_path):
+    """The server stops while a favourites run waits for a choice; a new server on the same
+    archive takes the run up again when its page asks: the same generation, the same
+    individuals, waiting for the choice, and the choice breeds the next generation."""
+    archive = tmp_path / "index.sqlite"
+    body = {"model": {"library": "gray-scott"}, "population": 3, "generations": 2,
+            "size": 16, "steps": 20, "fitness": "user", "seed": 4}
+    with TestClient(create_app(archive=archive, allowed_hosts=["testserver"])) as first:
+        run = first.post("/api/evolve", json=body).json()["run"]
+        before = wait(first, run, ("choose",))
+        assert before["gen"] == 1
+    # a new server: nothing in memory, the archive says "running"
+    with TestClient(create_app(archive=archive, allowed_hosts=["testserver"])) as second:
+        after = wait(second, run, ("choose",))
+        assert after["gen"] == 1 and after["images"] == before["images"]
+        np.testing.assert_allclose([list(p.values()) for p in after["params"]],
+                                   [list(p.values()) for p in before["params"]], rtol=1e-6)
+        second.post(f"/api/evolve/{run}/select", json={"indices": [2]}).raise_for_status()
+        assert wait(second, run, ("choose",))["gen"] == 2
+        # a run the archive does not know, or one not waiting for favourites, is not taken up
+        assert second.get("/api/evolve/nosuchrun").status_code == 400

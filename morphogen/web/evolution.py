@@ -49,7 +49,8 @@ def run_to_end(run: Any, body: Callable[[], None]) -> None:
     try:
         body()
     except Stopped as exc:
-        run.archive.set_status(run.run_id, "stopped")
+        if not getattr(run, "keep_waiting", False):  # else it stays "running", to be taken up
+            run.archive.set_status(run.run_id, "stopped")
         run.state, run.message = "stopped", str(exc)
     except MorphogenError as exc:
         run.archive.set_status(run.run_id, "failed")
@@ -82,6 +83,7 @@ class EvolveRun:
     error: str | None = None
     log: list[str] = field(default_factory=list)
     genomes: np.ndarray | None = None  # the generation being evaluated or chosen from
+    keep_waiting: bool = False  # set when the server stops while the run waits for a choice
     _asking: int | None = None  # the generation whose favourites were asked for, until chosen
     _chosen: list[int] | None = None
     _wake: threading.Event = field(default_factory=threading.Event)
@@ -102,6 +104,12 @@ class EvolveRun:
     def stop(self) -> None:
         self._stop.set()
         self._wake.set()
+
+    def shut_down(self) -> None:
+        """The server stops: a run waiting for a choice keeps its archive status ``running``
+        (the next server takes it up when its page asks); any other run is stopped."""
+        self.keep_waiting = self.state == "choose"
+        self.stop()
 
     # -- called by search.run.evolve in the run's thread --------------------------------------
     def select(self, sheet: str, n: int) -> list[int]:
@@ -221,9 +229,28 @@ class EvolveRuns:
         with self._lock:
             self._check_capacity()
             self._runs[run.run_id] = run
+        self._start(run)
+        return run
+
+    def take_up(self, run_id: str, make: Callable[[], Any | None]) -> Any | None:
+        """The run ``run_id`` if this server drives it; else the one ``make()`` builds (or
+        ``None``), started once however many requests ask at the same time."""
+        with self._lock:
+            run = self._runs.get(run_id)
+            if run is not None:
+                return run
+            run = make()
+            if run is None:
+                return None
+            self._check_capacity()
+            self._runs[run_id] = run
+        self._start(run)
+        return run
+
+    @staticmethod
+    def _start(run: Any) -> None:
         threading.Thread(target=run.thread_main, name=f"evolve-{run.run_id}",
                          daemon=True).start()
-        return run
 
     def get(self, run_id: str) -> Any:
         with self._lock:
@@ -233,6 +260,8 @@ class EvolveRuns:
         return run
 
     def stop_all(self) -> None:
+        """The server stops: every run stops (:meth:`EvolveRun.shut_down`: one waiting for a
+        choice is left to be taken up again)."""
         with self._lock:
             for run in self._runs.values():
-                run.stop()
+                getattr(run, "shut_down", run.stop)()

@@ -20,6 +20,7 @@ from morphogen.search.evaluate import Evaluator, Problem, policy_problem
 from morphogen.search.genes import Gene, check_genes, preset_genes
 from morphogen.search.run import STRATEGIES, start
 from morphogen.web.catalog import check_params, resolve_model
+from morphogen.web.evolution import EvolveRun
 from morphogen.web.limits import (
     JSONBody,
     Limits,
@@ -190,21 +191,47 @@ async def create_network(request: Request, body: JSONBody):
     return runs.add(run).to_json()
 
 
+def _current(request: Request, run_id: str) -> Any:
+    """The run this server drives; a favourites run that was waiting for a choice when the
+    server stopped (recorded ``running``, driven by no one) is taken up again from its last
+    recorded generation: the generation it was waiting on is evaluated again, with the same
+    individuals, and waits for the choice, so its page gets its tiles back. Any other run not
+    driven here is an error (the Runs page resumes it)."""
+    runs = request.app.state.evolve
+    archive = _archive(request)
+
+    def waiting() -> EvolveRun | None:
+        try:
+            info = archive.run(run_id)
+            problem = Problem.from_dict(info["config"]["problem"])
+        except (MorphogenError, KeyError, TypeError, ValueError):
+            return None  # unknown, a network run, or a damaged record: not taken up
+        if (info["status"] != "running" or problem.fitness != "user"
+                or len(archive.generations(run_id)) >= info["generations"]):
+            return None
+        strategy = info["config"]["strategy"]["name"]
+        return EvolveRun(run_id, archive, problem, info["generations"], info["population"],
+                         runs.idle_s, strategy)
+
+    run = runs.take_up(run_id, waiting)
+    return run if run is not None else runs.get(run_id)
+
+
 @router.get("/{run_id}")
 async def status(request: Request, run_id: str):
-    return request.app.state.evolve.get(run_id).to_json()
+    return _current(request, run_id).to_json()
 
 
 @router.post("/{run_id}/select")
 async def select(request: Request, run_id: str, body: JSONBody):
     """The favourites of the generation on show: ``{"indices": [..]}``."""
-    run = request.app.state.evolve.get(run_id)
+    run = _current(request, run_id)
     run.choose(body.get("indices"))
     return run.to_json()
 
 
 @router.post("/{run_id}/stop")
 async def stop(request: Request, run_id: str):
-    run = request.app.state.evolve.get(run_id)
+    run = _current(request, run_id)
     run.stop()
     return run.to_json()

@@ -7,6 +7,9 @@ import { api, el, fillSelect, fmt, showError } from './api.js';
 
 // The run this tab is showing, so a reload (or the Runs page) can bring it back.
 const RUN_KEY = 'morphogen.evolve.run';
+// the favourites picked so far in the generation on show, `{ run, gen, picks }`: they survive a
+// reload of the page and a restart of the server (which takes the waiting run up again)
+const PICKS_KEY = 'morphogen.evolve.picks';
 
 export class Evolve {
   constructor(root, app) {
@@ -230,7 +233,17 @@ export class Evolve {
     if (!run) return;
     try {
       this.status = await api(`/api/evolve/${run}`);
-    } catch (err) { showError(this.ui.error, err.message); return; }
+    } catch (err) {
+      // a server restarting: keep asking while the run was active (it is taken up again)
+      showError(this.ui.error, err.message);
+      if (['running', 'choose'].includes(this.status.state)) {
+        this.pollFailed = true;
+        this.timer = setTimeout(() => this.poll(), 2000);
+      }
+      return;
+    }
+    if (this.pollFailed) showError(this.ui.error, ''); // the server is back
+    this.pollFailed = false;
     await this.render();
     if (['running', 'choose'].includes(this.status.state)) {
       this.timer = setTimeout(() => this.poll(), this.status.state === 'choose' ? 1000 : 300);
@@ -254,7 +267,7 @@ export class Evolve {
     } else if (st.state === 'choose') {
       if (this.shownGen !== st.gen) {
         this.shownGen = st.gen;
-        this.picked.clear();
+        this.restorePicks(st.run, st.gen);
         this.showTiles(st.images.map((src, i) => ({ src, caption: `#${i}`, idx: i, params: st.params?.[i] })), true);
       }
     } else if (st.images) {
@@ -348,16 +361,33 @@ export class Evolve {
       const title = `${choosing ? 'choose' : 'open in Explore'}${values ? `\n${values}` : ''}`;
       const tile = el('button', { type: 'button', class: 'tile', 'data-idx': it.idx, title },
         el('img', { src: it.src, alt: it.caption }), el('span', { class: 'cap', text: it.caption }));
+      if (choosing) tile.classList.toggle('picked', this.picked.has(it.idx));
       tile.addEventListener('click', () => {
         if (choosing) {
           if (this.picked.has(it.idx)) this.picked.delete(it.idx); else this.picked.add(it.idx);
           tile.classList.toggle('picked', this.picked.has(it.idx));
           this.ui.next.disabled = this.picked.size === 0;
+          this.savePicks();
         } else if (it.open) {
           this.app.openInExplore(it.open);
         }
       });
       return tile;
+    }));
+  }
+
+  // the picks of `gen` of `run` kept from before a reload or a server restart (else none)
+  restorePicks(run, gen) {
+    this.picked.clear();
+    try {
+      const kept = JSON.parse(sessionStorage.getItem(PICKS_KEY) ?? 'null');
+      if (kept?.run === run && kept?.gen === gen) for (const i of kept.picks) this.picked.add(i);
+    } catch { /* nothing kept */ }
+  }
+
+  savePicks() {
+    sessionStorage.setItem(PICKS_KEY, JSON.stringify({
+      run: this.status.run, gen: this.status.gen, picks: [...this.picked],
     }));
   }
 
@@ -369,7 +399,11 @@ export class Evolve {
         method: 'POST', body: { indices: [...this.picked].sort((a, b) => a - b) },
       });
       this.poll();
-    } catch (err) { showError(u.error, err.message); u.next.disabled = false; }
+    } catch (err) {
+      showError(u.error, err.message);
+      u.next.disabled = false;
+      this.poll(); // e.g. a restarted server evaluating the generation again: its tiles return
+    }
   }
 
   async stop() {
