@@ -27,13 +27,16 @@ export async function evolve(page, base, out) {
   await page.screenshot({ path: join(out, 'evolve-next.png') });
   const runs = await x(page, () => fetch('/api/runs').then((r) => r.json()));
   const gen1 = await x(page, (id) => fetch(`/api/runs/${id}/generations/1`).then((r) => r.json()), run);
-  // a reload while the run waits for favourites brings it back, tiles, settings and all
+  // a reload while the run waits for favourites brings it back, tiles, settings, picks and all
+  await page.click('#ev-grid .tile[data-idx="3"]');
   await page.reload();
   await page.waitForFunction((id) => window.morphogenEvolve?.status?.run === id
     && document.querySelectorAll('#ev-grid .tile').length === 6, run, { timeout: 60000 });
   const reloaded = await x(page, () => ({ gen: window.morphogenEvolve.status.gen,
     state: window.morphogenEvolve.status.state, stop: !document.getElementById('ev-stop').hidden }));
   reloaded.controls = await controls(page);
+  reloaded.picked = await x(page, () => [...document.querySelectorAll('#ev-grid .tile.picked')]
+    .map((t) => t.dataset.idx));
   // the Runs page offers to continue it, and its detail says nothing is "null"
   await page.goto(`${base}#runs`);
   await page.click(`tr[data-run="${run}"]`);

@@ -136,9 +136,10 @@ def test_one_evolve_generation_with_two_favourites(server):
     expect[1] = expect[4] = LAMBDA / 2
     assert data["gen1"] == pytest.approx(expect, rel=1e-5)
     # reloading while the run waits for a choice keeps it with its own settings (not the
-    # page's defaults); Runs offers to continue it
+    # page's defaults) and the favourite picked before the reload; Runs offers to continue it
     shown = {"population": "6", "size": "48", "steps": "2000", "generations": "3"}
-    assert data["reloaded"] == {"gen": 2, "state": "choose", "stop": True, "controls": shown}
+    assert data["reloaded"] == {"gen": 2, "state": "choose", "stop": True, "controls": shown,
+                                "picked": ["3"]}
     assert "null" not in data["detailText"] and data["continued"] == "choose"
     # stopped while choosing, generation 2's six pictures stay (after a reload too), unchosen
     assert data["stopped"] == {"captions": [f"#{i} (not chosen)" for i in range(6)],
