@@ -48,10 +48,10 @@ export async function axe(page, base, out) {
 }
 
 // Tab reaches the thing; the keys do what the pointer does
-async function tabTo(page, test, limit = 120) {
+async function tabTo(page, test, limit = 120, arg = undefined) {
   for (let i = 0; i < limit; i += 1) {
     await page.keyboard.press('Tab');
-    if (await page.evaluate(test)) return i + 1;
+    if (await page.evaluate(test, arg)) return i + 1;
   }
   return 0;
 }
@@ -72,6 +72,12 @@ export async function keyboard(page, base, out) {
   seen.canvasUndo = await page.textContent('#ex-undo');
   seen.readout = await page.textContent('#ex-readout');
   seen.undo = await undo();
+  // the three file choosers (run file, picture to match, checkpoint) are in the tab order
+  seen.fileTabs = {};
+  for (const id of ['ex-open', 'ex-match-file', 'ex-restore']) {
+    await page.focus('#ex-model');
+    seen.fileTabs[id] = await tabTo(page, (want) => document.activeElement?.id === want, 200, id);
+  }
   // Atlas: Tab to the mosaic, arrows choose a tile, Enter opens it in Explore
   await ready(page, base, 'atlas');
   await smallAtlas(page);

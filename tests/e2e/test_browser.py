@@ -365,7 +365,8 @@ def test_axe_finds_no_serious_violation_and_every_page_has_a_heading(server):
 
 
 def test_keyboard_reaches_run_rows_atlas_tiles_and_both_canvases(server, quality_diversity_run):
-    """Tab reaches the Explore picture (arrows move the brush, Enter paints), the atlas
+    """Tab reaches the Explore picture (arrows move the brush, Enter paints), its three file
+    choosers, the atlas
     mosaic (arrows choose a tile, Enter opens it), the flower (arrows turn it) and the run
     rows (Enter opens one)."""
     import urllib.request
@@ -375,6 +376,7 @@ def test_keyboard_reaches_run_rows_atlas_tiles_and_both_canvases(server, quality
     quality_diversity_run(archive, Path(archive).parent / "keyboard-run", 1, 5)
     data = scenario(server, "keyboard")
     assert data["canvasTabs"] > 0 and data["canvasUndo"] == "Undo stroke (1)"
+    assert all(data["fileTabs"].values()), data["fileTabs"]  # the three file choosers
     assert data["readout"].startswith("cell (136, 128)")
     assert data["atlasTabs"] > 0 and data["atlasHover"].startswith("k = ")
     assert data["atlasOpened"]["k"] == pytest.approx(data["atlasOpened"]["want"])
