@@ -233,6 +233,15 @@ def test_the_web_checkpoint_upload_answers_4xx_with_one_line(tmp_path):
         good = savez(u=np.full((16, 16), 0.5), v=np.full((16, 16), 0.25))
         r = client.post(f"/api/live/{sid}/state", json={"npz": base64.b64encode(good).decode()})
         assert r.status_code == 200 and r.json()["ok"], r.text
+        # the checkpoint's own time goes back with it (a restart's recovery), checked
+        sent = base64.b64encode(good).decode()
+        for bad in (-1.0, "nan", "soon"):
+            r = client.post(f"/api/live/{sid}/state", json={"npz": sent, "t": bad})
+            assert r.status_code == 400 and "t must be" in r.json()["error"], (bad, r.text)
+        assert client.post(f"/api/live/{sid}/state", json={"npz": sent, "t": 42.5}).json()["ok"]
+        assert client.get(f"/api/live/{sid}").json()["t"] == 42.5
+        saved = client.get(f"/api/live/{sid}/state.npz")
+        assert float(saved.headers["X-Morphogen-Time"]) == 42.5
 
 
 def test_an_archives_damaged_strategy_state_is_one_line():

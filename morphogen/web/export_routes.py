@@ -25,7 +25,7 @@ from morphogen.errors import MorphogenError
 from morphogen.runs.config import RunConfig
 from morphogen.runs.web_page import export_page
 from morphogen.web import downloads
-from morphogen.web.limits import JSONBody, run_limited
+from morphogen.web.limits import JSONBody, number, run_limited
 
 router = APIRouter(prefix="/api/live")
 
@@ -53,20 +53,23 @@ MAX_CHECKPOINT_BYTES = 64 * 2**20
 
 @router.get("/{sid}/state.npz")
 async def checkpoint(request: Request, sid: str):
-    """The live state as ``state.npz`` (a download): one float32 array per species."""
+    """The live state as ``state.npz`` (a download): one float32 array per species; its time
+    in the ``X-Morphogen-Time`` header (the page keeps it, to put it back after a restart)."""
     sim = request.app.state.sessions.get(sid)
-    state = np.asarray(sim.state(), np.float32)
+    state, t = sim.snapshot()
     buf = io.BytesIO()
     np.savez(buf, **dict(zip(sim.engine.model.species, state, strict=True)))
     name = "".join(c if c.isalnum() or c in "-_." else "_" for c in sim.describe()["model"])
     return Response(buf.getvalue(), media_type="application/octet-stream",
-                    headers={"Content-Disposition": f'attachment; filename="{name}-state.npz"'})
+                    headers={"Content-Disposition": f'attachment; filename="{name}-state.npz"',
+                             "X-Morphogen-Time": repr(t)})
 
 
 @router.post("/{sid}/state")
 async def restore(request: Request, sid: str, body: JSONBody):
-    """Put a checkpoint back: ``{npz: base64}``, read by the engine's safe state loader (no
-    pickles; one finite array of the grid's shape per species); undone like a stroke."""
+    """Put a checkpoint back: ``{npz: base64, t: time}`` (``t`` optional: the checkpoint's
+    time, a finite number >= 0), read by the engine's safe state loader (no pickles; one finite
+    array of the grid's shape per species); undone like a stroke."""
     sim = request.app.state.sessions.get(sid)
     text = body.get("npz")
     if not isinstance(text, str) or len(text) > MAX_CHECKPOINT_BYTES * 4 // 3 + 4:
@@ -78,5 +81,8 @@ async def restore(request: Request, sid: str, body: JSONBody):
     # every array checked by its header (dtype, the grid's shape) before it is read: 4xx, one line
     state = load_state(raw, sim.engine.model.species, tuple(sim.engine.grid.shape),
                        what="the checkpoint")
-    left = sim.load_state(np.asarray(state, np.float32))
+    t = body.get("t")
+    if t is not None:
+        t = number(t, "t", 0.0, 1e30)
+    left = sim.load_state(np.asarray(state, np.float32), t)
     return {"ok": True, "undo": left}

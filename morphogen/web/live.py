@@ -233,9 +233,10 @@ class LiveSim:
             self.error = None
             return len(self.undo_stack)
 
-    def load_state(self, state: np.ndarray) -> int:
-        """Replace every species' state by ``state`` ``(S, h, w)`` (a checkpoint); one undo
-        step like a stroke. Returns the strokes that can be undone."""
+    def load_state(self, state: np.ndarray, t: float | None = None) -> int:
+        """Replace every species' state by ``state`` ``(S, h, w)`` (a checkpoint), and the
+        time by ``t`` when given (the checkpoint's own, after a server restart); one undo step
+        like a stroke. Returns the strokes that can be undone."""
         with self.lock:
             self._touch()
             if state.shape != tuple(self.u.shape):
@@ -243,6 +244,8 @@ class LiveSim:
                                      f"{tuple(self.u.shape[1:])}")
             self.undo_stack = [*self.undo_stack, self.u][-UNDO_DEPTH:]
             self.u = jnp.asarray(state, self.u.dtype)
+            if t is not None:
+                self.t = jnp.float32(t)
             self.error = None
             return len(self.undo_stack)
 
@@ -324,8 +327,12 @@ class LiveSim:
 
     def state(self) -> np.ndarray:
         """The whole state ``(S, h, w)`` as float32."""
+        return self.snapshot()[0]
+
+    def snapshot(self) -> tuple[np.ndarray, float]:
+        """The whole state ``(S, h, w)`` as float32 and its time, read together."""
         with self.lock:
-            return np.asarray(self.u, np.float32)
+            return np.asarray(self.u, np.float32), float(self.t)
 
     # -- description ------------------------------------------------------------------------
     def describe(self) -> dict[str, Any]:

@@ -47,16 +47,27 @@ async function choose(page, selector, value) {
 export async function restart(page, base, out) {
   await openExplore(page, base, '?model=gray-scott&p.F=0.05&p.k=0.061&p.Du=0.2&p.Dv=0.1&size=128&boundary=neumann&scheme=rk4&init=noise&seed=7&cmap=magma&show=u&spf=8&range=0,1');
   await settled(page);
-  // paused, a disc painted in the middle (the page keeps the painted state after the stroke)
+  // paused after some time has passed, one stroke dragged from the middle to the right for
+  // longer than the page waits before keeping the painted state (it keeps the whole stroke)
   await page.click('#ex-run');
   await page.waitForFunction(() => !window.morphogenExplore.running && !window.morphogenExplore.inflight);
   const box = await page.locator('#ex-canvas').boundingBox();
-  await page.mouse.click(box.x + box.width / 2, box.y + box.height / 2);
+  await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+  await page.mouse.down();
+  for (let i = 1; i <= 10; i += 1) {
+    await page.mouse.move(box.x + box.width * (0.5 + 0.025 * i), box.y + box.height / 2);
+    await page.waitForTimeout(80);
+  }
+  await page.mouse.up();
   await page.waitForFunction(() => !window.morphogenExplore.tools.busy() && window.morphogenExplore.kept
     && document.getElementById('ex-undo').textContent === 'Undo stroke (1)', null, { timeout: 30000 });
+  await page.waitForTimeout(400); // the kept state follows the last batch after 200 ms
+  await page.waitForFunction(() => window.morphogenExplore.kept && !window.morphogenExplore.tools.busy());
   const probe = () => x(page, async () => {
     const e = window.morphogenExplore;
-    return (await (await fetch(`/api/live/${e.sid}/probe?x=0.5&y=0.5`)).json()).values;
+    const at = async (px) => (await (await fetch(`/api/live/${e.sid}/probe?x=${px}&y=0.5`)).json()).values;
+    const t = (await (await fetch(`/api/live/${e.sid}`)).json()).t;
+    return { start: await at(0.5), end: await at(0.75), t };
   });
   const paintedBefore = await probe();
   const hashBefore = await x(page, () => window.location.hash);

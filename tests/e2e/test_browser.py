@@ -317,7 +317,9 @@ def test_a_forgotten_session_comes_back_with_every_setting(server):
     assert after["shown"] == before["shown"]
     assert data["hashAfter"] == data["hashBefore"]
     assert "restarted" in data["notice"] and not data["error"].strip()
-    # the disc painted before is back, and a paused view stays paused
+    # the whole stroke painted before is back (its end too, painted after the first 200 ms of
+    # the drag), at its own time, and a paused view stays paused
+    assert data["paintedBefore"]["t"] > 0
     assert data["paintedAfter"] == data["paintedBefore"] and not data["running"]
     assert "painted state" in data["notice"]
 

@@ -190,13 +190,15 @@ export class Explore {
   recover() {
     if (this.recovering) return this.recovering;
     const kept = this.kept;
+    const keptTime = this.keptTime;
     const maps = this.state && Object.keys(this.state.maps || {}).length;
     const settings = this.state && this.spec ? settingsOf(this.state, this.spec)
       : { model: this.spec || { library: 'gray-scott' } };
     settings.paused = !this.running;
     this.sid = null;
     this.recovering = this.load(settings).then(async () => {
-      const painted = kept && this.sid ? await putCheckpoint(this, kept).then(() => true, () => false) : false;
+      const painted = kept && this.sid
+        ? await putCheckpoint(this, kept, keptTime).then(() => true, () => false) : false;
       if (!this.running) this.request(true, true);
       showError(this.$('ex-notice'), `the server was restarted: the same settings run again${
         painted ? ', from the painted state of the last stroke' : ' from the start'}${
@@ -205,7 +207,9 @@ export class Explore {
     return this.recovering;
   }
 
-  // after a stroke, undo, image or reset (the undo count changed): keep the painted state
+  // after a stroke's points reached the server, an undo, image or reset: keep the painted
+  // state 200 ms after the last of them (a drag sends points for as long as it lasts, so the
+  // kept state holds the whole stroke)
   strokesChanged(n) {
     clearTimeout(this.keepTimer);
     if (!(n > 0)) { this.kept = null; return; }

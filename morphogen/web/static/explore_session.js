@@ -84,13 +84,17 @@ export async function downloadPage(x) {
   }
 }
 
-// The painted state, kept in the page after each stroke (the checkpoint's bytes), so that a
-// server restart does not lose it: recover() puts it back.
+// The painted state, kept in the page once a stroke has reached the server whole (the
+// checkpoint's bytes and its time), so that a server restart does not lose it: recover() puts
+// both back.
 export async function keepCheckpoint(x) {
   const sid = x.sid;
   try {
     const res = await fetch(`/api/live/${sid}/state.npz`);
-    if (res.ok && sid === x.sid) x.kept = await res.arrayBuffer();
+    if (res.ok && sid === x.sid) {
+      x.kept = await res.arrayBuffer();
+      x.keptTime = Number(res.headers.get('X-Morphogen-Time') ?? 0);
+    }
   } catch { /* the server is away: the last kept state stays */ }
 }
 
@@ -101,15 +105,17 @@ export function toBase64(buf) {
   return btoa(text);
 }
 
-// put checkpoint bytes back into the live view (one undo step); the server's undo count
-export async function putCheckpoint(x, buf) {
+// put checkpoint bytes back into the live view (one undo step), at time `t` when given; the
+// server's undo count
+export async function putCheckpoint(x, buf, t = undefined) {
+  const body = { npz: toBase64(buf), ...(Number.isFinite(t) ? { t } : {}) };
   const res = await fetch(`/api/live/${x.sid}/state`, {
-    method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify({ npz: toBase64(buf) }),
+    method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body),
   });
-  const body = await res.json().catch(() => ({}));
-  if (!res.ok) throw new Error(body.error || `${res.status} ${res.statusText}`);
-  x.tools.setUndo(body.undo);
-  return body.undo;
+  const answer = await res.json().catch(() => ({}));
+  if (!res.ok) throw new Error(answer.error || `${res.status} ${res.statusText}`);
+  x.tools.setUndo(answer.undo);
+  return answer.undo;
 }
 
 // A checkpoint chosen in the file box (a state.npz the Checkpoint link or `morphogen simulate`

@@ -251,6 +251,7 @@ export class ExploreTools {
           species: this.$('ex-paint-species').value || null, value: Number(this.$('ex-paint-value').value) },
       });
       this.setUndo(res.undo);
+      this.x.strokesChanged?.(res.undo); // every batch of a drag: keep the state after its last
       showError(this.$('ex-error'), '');
       if (!this.x.running) this.x.request(true, true); // show the stroke while paused
     } catch (err) { this.x.fail(err); } finally { this.painting -= 1; done(); }
