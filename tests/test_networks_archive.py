@@ -93,6 +93,15 @@ def test_network_run_is_archived_listed_shown_and_replayable(tmp_path, capsys):
     # step shows the file runs through `morphogen simulate --config`
     assert main(["simulate", "--config", str(out / "best" / "best_1.json"), "--steps", "1",
                  "--out", str(tmp_path / "replay"), "--quiet", "--unsafe"]) == 0
+    # the Runs page's fittest networks are valid ones only: an invalid genome (-1) never
+    import sqlite3
+
+    from morphogen.search.networks.record import summary
+
+    assert all(b["fitness"] >= 0 for b in summary(archive, row["id"], 3)["best"])
+    with sqlite3.connect(archive_file) as db:
+        db.execute("UPDATE individuals SET fitness = -1 WHERE run_id = ?", (row["id"],))
+    assert summary(archive, row["id"], 3)["best"] == []
 
 
 @pytest.mark.slow

@@ -279,15 +279,18 @@ def show(archive: Archive, run_id: str) -> str:
 
 def summary(archive: Archive, run_id: str, k: int = 3) -> dict[str, Any]:
     """A network run for the web app's Runs page: its settings, one row per generation (best,
-    mean, valid count) and the ``k`` fittest archived genomes, each with its non-zero reactions
-    and its ``run.json`` (:func:`best_run_file`), which Explore and ``morphogen simulate
-    --config`` replay."""
+    mean, valid count) and the ``k`` fittest archived genomes that were valid (an invalid one,
+    fitness -1, is never listed as fittest), each with its non-zero reactions and its
+    ``run.json`` (:func:`best_run_file`), which Explore and ``morphogen simulate --config``
+    replay."""
     r = archive.run(run_id)
     c = r["config"]
     p, ev = c["problem"], c["problem"]["ev"]
     spec = spec_from_dict(p["spec"])
     best = []
     for b in archive.best(run_id, k):
+        if not b["fitness"] >= 0:  # sorted fittest first: the rest are invalid too
+            break
         reactions = [f"{row['reaction']}  k = {row['k']:.3g}"
                      for row in describe(vector_genome(b["genome"], spec), spec) if row["k"]]
         best.append({"gen": b["gen"], "idx": b["idx"], "fitness": b["fitness"],
