@@ -77,6 +77,17 @@ export async function evolve(page, base, out) {
 export async function atlasUnstable(page, base, out) {
   await page.goto(`${base}#atlas`);
   await page.waitForFunction(() => document.querySelectorAll('#at-x option').length > 0);
+  // a long atlas cancelled by the user: a plain message, no error in red
+  await page.fill('#at-x-n', '8');
+  await page.fill('#at-y-n', '8');
+  await page.selectOption('#at-tile', '64');
+  await page.fill('#at-steps', '10000');
+  await page.click('#at-go');
+  await page.waitForSelector('#at-cancel:not([hidden])');
+  await page.click('#at-cancel');
+  await page.waitForFunction(() => !document.getElementById('at-go').disabled, null, { timeout: 120000 });
+  const cancelled = await x(page, () => ({ error: document.getElementById('at-error').hidden
+    ? '' : document.getElementById('at-error').textContent, message: document.getElementById('at-message').textContent }));
   await page.selectOption('#at-x', 'F');
   await page.fill('#at-x-lo', '0.01');
   await page.fill('#at-x-hi', '0.07');
@@ -102,5 +113,5 @@ export async function atlasUnstable(page, base, out) {
   const hovers = [await hover(0), await hover(1)];
   await page.screenshot({ path: join(out, 'atlas-unstable.png') });
   const line = await x(page, () => { const p = document.getElementById('at-unstable'); return { hidden: p.hidden, text: p.textContent, title: p.title }; });
-  return { valid: res.valid, line, hovers };
+  return { valid: res.valid, line, hovers, cancelled };
 }

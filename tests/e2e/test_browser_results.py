@@ -16,6 +16,8 @@ def test_atlas_counts_and_names_unstable_tiles(server):
     """Gray-Scott at k = 0 ends in a checkerboard at dt = 1: the page counts those tiles (the
     server's full report as the line's title) and names them on hover; a sound tile is not."""
     data = scenario(server, "atlasunstable")
+    # before it, the user's own cancel of a long atlas: said plainly, not as an error
+    assert data["cancelled"] == {"error": "", "message": "Cancelled: no atlas computed."}
     assert data["valid"] == [[True, True], [False, False]]
     line = data["line"]
     assert not line["hidden"] and line["text"].startswith("2 of 4 tiles numerically unstable")

@@ -98,6 +98,7 @@ export class Atlas {
     showError(this.$('at-error'), '');
     const bar = this.$('at-progress');
     this.$('at-go').disabled = true;
+    this.cancelled = false;
     try {
       const { job } = await api('/api/atlas', { method: 'POST', body: this.request() });
       this.job = job;
@@ -118,9 +119,10 @@ export class Atlas {
       this.$('at-csv').hidden = true;
       this.$('at-legend').hidden = true;
       this.$('at-unstable').hidden = true;
-      this.$('at-message').textContent = '';
+      this.$('at-message').textContent = this.cancelled ? 'Cancelled: no atlas computed.' : '';
       this.result = null;
-      showError(this.$('at-error'), err.message);
+      // the user's own cancel is a plain message, not an error in red
+      if (!this.cancelled) showError(this.$('at-error'), err.message);
     } finally {
       this.$('at-go').disabled = false;
       this.$('at-cancel').hidden = true;
@@ -129,6 +131,7 @@ export class Atlas {
   }
 
   async cancel() {
+    this.cancelled = true;
     if (this.job) await api(`/api/jobs/${this.job}`, { method: 'DELETE' }).catch(() => {});
   }
 
