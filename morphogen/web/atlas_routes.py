@@ -166,6 +166,7 @@ async def start(request: Request, body: JSONBody):
             "wall_time_s": round(atlas.wall_time, 3),
             "model": spec, "model_name": model.name, "params": base,
             "dt": run["dt"], "steps": run["steps"], "init": run["init"], "seed": run["seed"],
+            "dx": run["dx"], "boundary": run["boundary"], "stencil": run["stencil"],
         }
 
     job = request.app.state.jobs.submit("atlas", work)

@@ -209,7 +209,8 @@ const SCENARIOS = {
     await page.screenshot({ path: join(out, 'atlas-to-explore.png') });
     const params = await page.evaluate(() => window.morphogenExplore.state.params);
     const size = await page.evaluate(() => window.morphogenExplore.state.size);
-    return { x: res.x, y: res.y, valid: res.valid, params, size, tile: res.tile,
+    const dt = await page.evaluate(() => window.morphogenExplore.state.dt);
+    return { x: res.x, y: res.y, valid: res.valid, params, size, tile: res.tile, dt, atlasDt: res.dt,
       sizeShown: await page.inputValue('#ex-size'), staleShown, ...families };
   },
 

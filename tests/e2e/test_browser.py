@@ -188,6 +188,7 @@ def test_atlas_tile_opens_in_explore(server):
     assert data["params"]["k"] == pytest.approx(data["x"]["values"][1])
     # the tile's own grid, so Explore grows the pattern the tile showed; the Grid box shows it
     assert data["size"] == data["tile"] == 32 and data["sizeShown"] == "32"
+    assert data["dt"] == data["atlasDt"]  # and its step
     assert not data["staleShown"]  # an error does not sit over the previous atlas
     mosaic = iio.imread(OUT / "atlas-mosaic.png")  # the downloaded mosaic: 6 x 6 tiles of 32
     assert mosaic.shape[0] >= 6 * 32 and mosaic.shape[1] >= 6 * 32

@@ -234,6 +234,8 @@ export class Atlas {
     if (!t) return;
     const res = this.result;
     const params = { ...res.params, [res.x.name]: t.x, [res.y.name]: t.y };
-    this.app.openInExplore({ model: res.model, params, init: res.init, seed: res.seed, size: res.tile });
+    // the tile's own run: its grid and step (Explore would otherwise pick a step of its own)
+    this.app.openInExplore({ model: res.model, params, init: res.init, seed: res.seed, size: res.tile,
+      dt: res.dt, dx: res.dx, boundary: res.boundary, stencil: res.stencil });
   }
 }
