@@ -390,6 +390,22 @@ const overflowing = (page, selector) => page.evaluate((sel) => {
     .map((e) => e.id || e.tagName);
 }, selector);
 
+// the server's model list fails once: the page says so with a button, which then starts the app
+SCENARIOS.modelsdown = async (page) => {
+  let failures = 0;
+  await page.route('**/api/models', (route) => {
+    failures += 1;
+    return route.fulfill({ status: 500, contentType: 'application/json', body: '{"error": "the catalogue is away"}' });
+  });
+  await page.goto(`${base}#explore`);
+  await page.waitForSelector('#start-error');
+  const shown = await page.textContent('#start-error');
+  await page.unroute('**/api/models');
+  await page.click('#start-error button');
+  await page.waitForFunction(() => window.morphogenExplore?.frames >= 1, null, { timeout: 60000 });
+  return { shown, failures, gone: (await page.locator('#start-error').count()) === 0 };
+};
+
 SCENARIOS.layout = async (page) => {
   await page.goto(`${base}#evolve`);
   await page.waitForFunction(() => Number(document.getElementById('ev-population')?.value) > 0);

@@ -56,3 +56,11 @@ def test_match_panel_finds_a_model_and_opens_it_in_explore(server):
     assert opened["dx"] == pytest.approx(best["dx"])
     assert [opened["height"], opened["size"]] == best["size"]
     assert opened["dt"] <= best["dt"] * (1 + 1e-6) and opened["init"] == best["init"]
+
+
+def test_a_failing_model_list_is_said_with_a_way_to_try_again(server):
+    """``/api/models`` fails: the page says why where the app would be (not a blank page), and
+    its button starts the app once the server answers."""
+    data = scenario(server, "modelsdown")
+    assert "could not list its models" in data["shown"] and "the catalogue is away" in data["shown"]
+    assert data["failures"] == 1 and data["gone"]

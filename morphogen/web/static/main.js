@@ -54,11 +54,27 @@ const app = {
 
 window.morphogenApp = app;
 
+// the app cannot start without the server's list of models: say so where the page would be,
+// with a button that asks again (instead of a blank page)
+function startFailed(err) {
+  document.getElementById('status').textContent = `server error: ${err.message}`;
+  const box = document.getElementById('start-error') ?? document.createElement('div');
+  box.id = 'start-error';
+  box.className = 'error';
+  box.setAttribute('role', 'alert');
+  const retry = document.createElement('button');
+  retry.type = 'button';
+  retry.textContent = 'Try again';
+  retry.addEventListener('click', () => { box.remove(); start(); });
+  box.replaceChildren(`The server could not list its models (${err.message}), so no page can be shown. `, retry);
+  document.querySelector('main')?.prepend(box) ?? document.body.append(box);
+}
+
 async function start() {
   try {
     app.info = await api('/api/models');
   } catch (err) {
-    document.getElementById('status').textContent = `server error: ${err.message}`;
+    startFailed(err);
     return;
   }
   // #page, or #explore?settings (see urlstate.js)
