@@ -137,10 +137,30 @@ export async function phone(page, base, out) {
   const small = await p.evaluate(() => [...document.querySelectorAll(
     '#page-explore button, #page-explore select, #page-explore input, #page-explore .button, nav a')]
     .filter((e) => e.offsetParent && getComputedStyle(e).visibility !== 'hidden')
+    .filter((e) => !e.classList.contains('file-input')) // out of sight: its label is the target
     .map((e) => [e.id || e.getAttribute('aria-label') || e.textContent.trim(), e.getBoundingClientRect()])
     .filter(([, r]) => r.height < 44 || r.width < 44)
     .map(([n, r]) => `${n} ${Math.round(r.width)}x${Math.round(r.height)}`));
   const keysShown = await p.isVisible('#ex-keys');
+  // Shift+Tab back through the controls from the last: none comes to rest under the picture
+  const under = [];
+  await p.evaluate(() => {
+    const all = [...document.querySelectorAll('#page-explore .controls :is(button, select, input, textarea, a[href], summary)')]
+      .filter((e) => e.offsetParent && !e.disabled);
+    all.at(-1).focus();
+  });
+  for (let i = 0; i < 60; i += 1) {
+    await p.keyboard.press('Shift+Tab');
+    const seen = await p.evaluate(() => {
+      const a = document.activeElement;
+      if (!a?.closest('#page-explore .controls')) return null;
+      const stage = document.querySelector('#page-explore .stage').getBoundingClientRect();
+      const r = a.getBoundingClientRect();
+      return { name: a.id || a.getAttribute('aria-label') || a.textContent.trim(), hidden: r.top < stage.bottom - 1 };
+    });
+    if (seen === null) break;
+    if (seen.hidden) under.push(seen.name);
+  }
   // the atlas: mosaic and labels inside the screen
   await ready(p, base, 'atlas');
   await smallAtlas(p);
@@ -165,5 +185,5 @@ export async function phone(page, base, out) {
   });
   await p.screenshot({ path: join(out, 'phone-runs-table.png') });
   await ctx.close();
-  return { canvasTop, canvasScrolled, slider, scrollY, small, keysShown, atlas, runs, errors };
+  return { canvasTop, canvasScrolled, slider, scrollY, small, keysShown, under, atlas, runs, errors };
 }

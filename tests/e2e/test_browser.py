@@ -406,6 +406,7 @@ def test_phone_shows_the_picture_first(server, quality_diversity_run):
     slider = data["slider"]
     assert slider["y"] >= moved["y"] + moved["height"] and slider["y"] + slider["height"] <= 845
     assert data["small"] == []
+    assert data["under"] == []  # no control focused by keyboard rests under the picture
     assert not data["keysShown"]
     assert data["atlas"] == {"image": True, "labels": True, "width": 390}
     runs = data["runs"]

@@ -52,6 +52,11 @@ export class Explore {
     this.schemeCosts = info.scheme_costs;
     this.$('ex-equations').value = EXAMPLE;
     this.canvas = this.$('ex-canvas');
+    // the picture's height, for the phone layout's scroll margin: a control the keyboard
+    // focuses comes to rest below the sticky picture, not under it (app.css)
+    const stage = this.canvas.closest('.stage');
+    new ResizeObserver(() => document.documentElement.style.setProperty(
+      '--explore-stage-h', `${stage.getBoundingClientRect().height}px`)).observe(stage);
     this.ctx = this.canvas.getContext('2d');
     this.bindControls();
     this.tools.bind(); // brush, readout, colour bar, recording
