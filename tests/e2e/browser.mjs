@@ -427,7 +427,7 @@ SCENARIOS.layout = async (page) => {
   return { evolveDesktop, width, canvasWidth: canvas.width, stacked: canvas.y + canvas.height <= controls.y + 1 };
 };
 
-for (const name of ['restart', 'refusals', 'schemes', 'checkpoint']) SCENARIOS[name] = (page) => designer[name](page, base, out);
+for (const name of ['restart', 'refusals', 'schemes', 'checkpoint', 'dtNotices']) SCENARIOS[name] = (page) => designer[name](page, base, out);
 for (const name of ['axe', 'keyboard', 'phone']) SCENARIOS[name] = (page) => access[name](page, base, out);
 SCENARIOS.evolve = (page) => results.evolve(page, base, out);
 SCENARIOS.atlasunstable = (page) => results.atlasUnstable(page, base, out);

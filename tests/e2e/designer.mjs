@@ -88,6 +88,23 @@ export async function restart(page, base, out) {
     notice: await page.textContent('#ex-notice'), error: await page.textContent('#ex-error') };
 }
 
+// 3b. A diffusion raised past Euler's limit lowers dt (a notice that stays); lowered again, dt goes
+// back up (a notice that goes by itself after a few seconds).
+export async function dtNotices(page, base) {
+  await openExplore(page, base, '?model=gray-scott&size=64');
+  await settled(page);
+  const notice = () => page.textContent('#ex-notice');
+  await x(page, () => window.morphogenExplore.queueParam('Du', 2.0));
+  await page.waitForFunction(() => document.getElementById('ex-notice').textContent.startsWith('dt lowered'));
+  await page.waitForTimeout(5000);
+  const lowered = await notice(); // still there
+  await x(page, () => window.morphogenExplore.queueParam('Du', 0.2097));
+  await page.waitForFunction(() => document.getElementById('ex-notice').textContent.startsWith('dt back up'));
+  const up = await notice();
+  await page.waitForFunction(() => document.getElementById('ex-notice').textContent === '', null, { timeout: 15000 });
+  return { lowered, up, gone: await notice() };
+}
+
 // 4. Refusals leave every control showing what runs; a grid change keeps the view settings.
 export async function refusals(page, base, out) {
   await openExplore(page, base);

@@ -325,6 +325,12 @@ def test_a_forgotten_session_comes_back_with_every_setting(server):
     assert "painted state" in data["notice"]
 
 
+def test_dt_lowered_stays_said_and_dt_back_up_passes(server):
+    data = scenario(server, "dtNotices")
+    assert data["lowered"].startswith("dt lowered to ")  # still shown 5 s later
+    assert data["up"].startswith("dt back up to ") and data["gone"] == ""
+
+
 def test_refusals_and_grid_changes_keep_the_controls_true(server):
     """A new grid keeps the species shown, steps per frame, colours, a fixed range and a
     hand-set dt; after a refused grid or parameter every control shows what runs."""

@@ -14,6 +14,7 @@ import { currentQuery, decodeSettings, encodeState, settingsFromRunFile } from '
 
 const FRAME_BUDGET_S = 30; // the server's limit on one frame (morphogen.web.limits)
 const MIN_DEFAULT_STEPS = 4; // the fewest steps per frame the server picks for a new scheme
+const NOTICE_S = 4; // how long a passing notice ("dt back up") stays
 
 export class Explore {
   constructor(root, app) {
@@ -212,6 +213,19 @@ export class Explore {
     return this.recovering;
   }
 
+  // a parameter change's notices; "dt back up" is good news and goes after a few seconds,
+  // "dt lowered" stays until the next change
+  paramNotice(notices) {
+    clearTimeout(this.noticeTimer);
+    const text = notices.join('\n');
+    showError(this.$('ex-notice'), text);
+    if (text && notices.every((n) => n.startsWith('dt back up'))) {
+      this.noticeTimer = setTimeout(() => {
+        if (this.$('ex-notice').textContent === text) showError(this.$('ex-notice'), '');
+      }, NOTICE_S * 1000);
+    }
+  }
+
   // after a stroke's points reached the server, an undo, image or reset: keep the painted
   // state 200 ms after the last of them (a drag sends points for as long as it lasts, so the
   // kept state holds the whole stroke)
@@ -333,7 +347,7 @@ export class Explore {
         { method: 'POST', body: { params, ...more } }));
       this.state = { ...this.state, ...res };
       this.setDt(res.dt, res.dt_max);
-      showError(this.$('ex-notice'), res.notices.join('\n'));
+      this.paramNotice(res.notices);
       this.updateLinks();
       this.writeUrl();
     } catch (err) {
