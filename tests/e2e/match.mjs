@@ -13,6 +13,8 @@ export async function matchPanel(page, base, out) {
   await page.waitForFunction(() => window.morphogenExplore.state?.model === 'schnakenberg'
     && !window.morphogenExplore.loading, null, { timeout: 60000 });
   await page.waitForSelector('#ex-match-models input[value="gray-scott"]');
+  await page.selectOption('#ex-cmap', 'magma'); // the designer's colour map, kept by Open
+  await page.waitForFunction(() => window.morphogenExplore.state?.cmap === 'magma');
   const panel = await x(page, () => ({
     models: [...document.querySelectorAll('#ex-match-models input')].map((b) => [b.value, b.checked]),
     budget: document.getElementById('ex-match-budget').value,
@@ -60,7 +62,8 @@ export async function matchPanel(page, base, out) {
   await page.screenshot({ path: join(out, 'match-panel.png') });
   const opened = await x(page, () => {
     const s = window.morphogenExplore.state;
-    return { model: s.model, params: s.params, dx: s.dx, size: s.size, height: s.height, dt: s.dt, init: s.init };
+    return { model: s.model, params: s.params, dx: s.dx, size: s.size, height: s.height, dt: s.dt, init: s.init,
+      cmap: s.cmap };
   });
   return { panel, shown, messages: [...messages], result, cards, opened, best };
 }

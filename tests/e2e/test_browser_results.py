@@ -56,6 +56,7 @@ def test_match_panel_finds_a_model_and_opens_it_in_explore(server):
     assert opened["dx"] == pytest.approx(best["dx"])
     assert [opened["height"], opened["size"]] == best["size"]
     assert opened["dt"] <= best["dt"] * (1 + 1e-6) and opened["init"] == best["init"]
+    assert opened["cmap"] == "magma"  # the page's colour map, not the run file's grey
 
 
 def test_a_failing_model_list_is_said_with_a_way_to_try_again(server):

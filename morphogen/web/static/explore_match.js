@@ -135,11 +135,14 @@ export class MatchPanel {
     this.$('ex-match-results').replaceChildren(...cards, sheet);
   }
 
-  // the candidate's run.json in Explore: its model, parameters, dx, grid, dt, start and seed
+  // the candidate's run.json in Explore: its model, parameters, dx, grid, dt, start and seed;
+  // the page's own colour map stays (the run file's grey is for comparing with the picture)
   open(c) {
     showError(this.$('ex-match-error'), '');
     try {
-      return this.x.load(settingsFromRunFile(c.run));
+      const settings = settingsFromRunFile(c.run);
+      if (this.x.state?.cmap) settings.view = { ...settings.view, cmap: this.x.state.cmap };
+      return this.x.load(settings);
     } catch (err) {
       showError(this.$('ex-match-error'), err.message);
       return undefined;
