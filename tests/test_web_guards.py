@@ -236,3 +236,15 @@ def test_serving_beyond_this_machine_needs_allow_remote(capsys, monkeypatch):
     monkeypatch.setenv("MORPHOGEN_TOKEN", "short")
     with pytest.raises(MorphogenError, match="MORPHOGEN_TOKEN"):
         access("0.0.0.0", True)
+
+
+def test_a_time_limited_jobs_time_left_counts_down_while_its_progress_stands_still():
+    """A job that knows how long it runs (a match's search minutes) counts its time left down
+    to that, however its progress moves; other jobs extrapolate their progress."""
+    from morphogen.web.jobs import Job
+
+    job = Job("j", "match", status="running", progress=0.1, expected_s=60.0)
+    assert [job.eta(t) for t in (10.0, 30.0, 59.0, 61.0)] == [50.0, 30.0, 1.0, None]
+    plain = Job("k", "atlas", status="running", progress=0.25)
+    assert plain.eta(10.0) == 30.0
+    assert Job("d", "match", status="done", expected_s=60.0).eta(10.0) is None

@@ -58,6 +58,9 @@ class Job:
     cancel: threading.Event = field(default_factory=threading.Event)
     files: dict[str, tuple[bytes, str]] = field(default_factory=dict)
     """Binary results (images) by name: ``(data, media type)``, served under the job's URL."""
+    expected_s: float | None = None
+    """The job's own estimate of how long it runs (a search limited by time): the time left
+    counts down to it instead of following a progress that may stand still."""
 
     def to_json(self) -> dict[str, Any]:
         elapsed = ((self.finished or time.time()) - self.started) if self.started else 0.0
@@ -69,9 +72,15 @@ class Job:
         }
 
     def eta(self, elapsed: float) -> float | None:
-        """Seconds left at the rate so far, ``elapsed (1 - p) / p``; None before any progress
-        or once the job has ended."""
-        if self.status != "running" or not 0.0 < self.progress < 1.0:
+        """Seconds left: to :attr:`expected_s` when the job gave one (None once it is past),
+        else at the rate so far, ``elapsed (1 - p) / p``; None before any progress or once the
+        job has ended."""
+        if self.status != "running":
+            return None
+        if self.expected_s is not None:
+            left = self.expected_s - elapsed
+            return round(left, 1) if left > 0 else None
+        if not 0.0 < self.progress < 1.0:
             return None
         return round(elapsed * (1.0 - self.progress) / self.progress, 1)
 

@@ -135,6 +135,7 @@ async def start(request: Request, body: JSONBody) -> dict[str, Any]:
         from morphogen.match.answer import grey_tile, sheet
 
         said: list[str] = []
+        job.expected_s = 60.0 * opts["minutes"]  # the search's limit: the time left counts down
         progress(0.0, "describing the picture")
 
         def report(done: int, total: int) -> None:
