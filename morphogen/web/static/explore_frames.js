@@ -66,8 +66,12 @@ export const frameMethods = {
     };
     this.redraw();
     if (this.state && this.last.ms > 0) {
-      this.seen = { ms: this.last.ms, cells: w * h, steps: this.state.steps_per_frame,
+      // the fastest frame of this set-up: a frame that compiled its program, or one computed
+      // under the previous set-up, is slower than the set-up's own and would inflate estimates
+      const seen = { ms: this.last.ms, cells: w * h, steps: this.state.steps_per_frame,
         scheme: this.state.scheme, boundary: this.state.boundary };
+      const same = this.seen && ['cells', 'steps', 'scheme', 'boundary'].every((k) => this.seen[k] === seen[k]);
+      this.seen = same ? { ...seen, ms: Math.min(this.seen.ms, seen.ms) } : seen;
     }
     this.tools.onFrame(this.last);
     this.frames += 1;
