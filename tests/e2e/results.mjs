@@ -113,5 +113,11 @@ export async function atlasUnstable(page, base, out) {
   const hovers = [await hover(0), await hover(1)];
   await page.screenshot({ path: join(out, 'atlas-unstable.png') });
   const line = await x(page, () => { const p = document.getElementById('at-unstable'); return { hidden: p.hidden, text: p.textContent, title: p.title }; });
-  return { valid: res.valid, line, hovers, cancelled };
+  // the mosaic's file gone from the server (a restart forgets jobs): its download says so
+  const [saved] = await Promise.all([page.waitForEvent('download'), page.click('#at-save')]);
+  await x(page, () => { document.getElementById('at-save').href = '/api/jobs/forgotten/files/atlas.png'; });
+  await page.click('#at-save');
+  await page.waitForSelector('#at-error:not([hidden])');
+  const gone = { saved: saved.suggestedFilename(), error: await page.textContent('#at-error') };
+  return { valid: res.valid, line, hovers, cancelled, gone };
 }

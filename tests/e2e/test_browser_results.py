@@ -24,6 +24,9 @@ def test_atlas_counts_and_names_unstable_tiles(server):
     assert line["title"].startswith("2 of 4 tiles were numerically unstable at dt=1")
     top, bottom = data["hovers"]
     assert "unstable" not in top and bottom.endswith("numerically unstable (not a pattern)")
+    # the mosaic downloads; once the server has forgotten it, the page says so (no 404 saved)
+    assert data["gone"]["saved"] == "atlas.png"
+    assert "no longer on the server" in data["gone"]["error"]
 
 
 def _spots(n: int = 128, period: float = 12.0) -> np.ndarray:

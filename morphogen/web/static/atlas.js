@@ -27,6 +27,9 @@ export class Atlas {
     this.$('at-y').addEventListener('change', () => this.axisDefaults('y'));
     this.$('at-go').addEventListener('click', () => this.compute());
     this.$('at-cancel').addEventListener('click', () => this.cancel());
+    for (const id of ['at-save', 'at-csv']) {
+      this.$(id).addEventListener('click', (ev) => this.download(ev, this.$(id)));
+    }
     const img = this.$('at-image');
     img.addEventListener('click', (ev) => this.open(ev));
     img.addEventListener('mousemove', (ev) => this.hover(ev));
@@ -128,6 +131,22 @@ export class Atlas {
       this.$('at-cancel').hidden = true;
       bar.hidden = true;
     }
+  }
+
+  // a download of the atlas's files, which live with the server's job: after a restart they
+  // are gone, and the page says so instead of saving a 404
+  async download(ev, link) {
+    if (link.dataset.checked === link.href) return; // checked just now: the browser saves it
+    ev.preventDefault();
+    const res = await fetch(link.href).catch(() => null);
+    if (!res?.ok) {
+      showError(this.$('at-error'), 'this atlas is no longer on the server (it was restarted, '
+        + 'or forgot old results): compute it again to download it');
+      return;
+    }
+    link.dataset.checked = link.href;
+    link.click();
+    delete link.dataset.checked;
   }
 
   async cancel() {
