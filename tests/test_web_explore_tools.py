@@ -132,6 +132,17 @@ def test_recording_downloads_the_frames_shown_as_gif_and_mp4(client):  # noqa: F
     assert mp4.headers["content-type"] == "video/mp4" and mp4.content[4:8] == b"ftyp"
     bad = client.get(f"/api/live/{sid}/recording", params={"format": "avi"})
     assert bad.status_code == 400 and "gif, mp4" in bad.json()["error"]
+    # half the size (every other cell) and another frame rate: a GIF of 16 x 8 frames,
+    # 50 ms -> 100 ms each; out of range is one line
+    half = client.get(f"/api/live/{sid}/recording",
+                      params={"format": "gif", "every": 2, "fps": 10})
+    small = iio.imread(io.BytesIO(half.content), extension=".gif", index=None)
+    assert small.shape[:3] == (3, 8, 16) and len(half.content) < len(gif.content)
+    np.testing.assert_array_equal(small[2][..., :3], lut[shown[2][::2, ::2]])
+    assert iio.immeta(io.BytesIO(half.content), extension=".gif")["duration"] == 100
+    for params in ({"every": 5, "fps": 20}, {"every": 1, "fps": 0}):
+        r = client.get(f"/api/live/{sid}/recording", params={"format": "gif", **params})
+        assert r.status_code == 400, params
 
 
 def test_an_image_starts_one_species_and_undoes_like_a_stroke(client):  # noqa: F811

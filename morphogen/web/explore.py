@@ -216,11 +216,14 @@ async def record(request: Request, sid: str, body: JSONBody):
 
 
 @router.get("/{sid}/recording")
-async def recording(request: Request, sid: str, format: str = "gif", fps: int = 20):
-    """The recorded frames as an animated GIF or an MP4 through the current colour map."""
+async def recording(request: Request, sid: str, format: str = "gif", fps: int = 20,
+                    every: int = 1):
+    """The recorded frames as an animated GIF or an MP4 through the current colour map, at
+    ``fps`` frames a second, each side reduced ``every`` (1 to 4) times."""
     sim = _sim(request, sid)
     fps = integer(fps, "fps", 1, 60)
-    data = await run_limited(lambda: sim.recorder.encode(format, sim.cmap, fps),
+    every = integer(every, "every", 1, 4)
+    data = await run_limited(lambda: sim.recorder.encode(format, sim.cmap, fps, every),
                              request.app.state.limits.job_timeout_s, "encoding the recording")
     return Response(data, media_type=FORMATS[format],
                     headers=_attachment(f"{sim.describe()['model']}.{format}"))

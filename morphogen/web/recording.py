@@ -53,8 +53,10 @@ class Recorder:
     def describe(self) -> dict[str, Any]:
         return {"on": self.on, "frames": len(self.frames), "max_frames": self.frames.maxlen}
 
-    def encode(self, fmt: str, cmap: str, fps: int = 20) -> bytes:
-        """The recorded frames as ``fmt`` (``gif`` or ``mp4``) bytes through colour map ``cmap``.
+    def encode(self, fmt: str, cmap: str, fps: int = 20, every: int = 1) -> bytes:
+        """The recorded frames as ``fmt`` (``gif`` or ``mp4``) bytes through colour map ``cmap``,
+        at ``fps`` frames a second, each side reduced ``every`` times (every ``every``-th cell:
+        2 makes a GIF about a quarter of the size).
 
         MP4 (H.264, yuv420p) needs even sides: odd ones are padded by one row or column
         repeating the edge.
@@ -69,7 +71,7 @@ class Recorder:
         if len(shapes) > 1:
             raise MorphogenError("the grid changed while recording; record again")
         lut = colour_table(cmap)
-        video = lut[np.stack(frames)]  # (T, h, w, 3) uint8
+        video = lut[np.stack(frames)[:, ::every, ::every]]  # (T, h, w, 3) uint8
         if fmt == "gif":
             return iio.imwrite("<bytes>", video, extension=".gif", duration=1000 / fps, loop=0)
         h, w = video.shape[1:3]

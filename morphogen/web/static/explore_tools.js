@@ -23,6 +23,7 @@ export class ExploreTools {
     for (const id of ['ex-range-lo', 'ex-range-hi']) $(id).addEventListener('change', () => this.sendRange());
     $('ex-undo').addEventListener('click', () => this.undo());
     $('ex-record').addEventListener('click', () => this.toggleRecording());
+    for (const id of ['ex-rec-every', 'ex-rec-fps']) $(id).addEventListener('change', () => this.recordingLinks());
     const canvas = this.x.canvas;
     canvas.addEventListener('pointermove', (ev) => this.probe(ev));
     canvas.addEventListener('pointerleave', () => { this.probeAt = null; $('ex-readout').innerHTML = '&nbsp;'; });
@@ -287,11 +288,17 @@ export class ExploreTools {
       this.recorded = res.frames;
       this.$('ex-record').textContent = on ? 'Stop recording (0 frames)' : 'Record again';
       this.$('ex-recorded').hidden = on || !res.frames;
-      const base = `/api/live/${this.x.sid}/recording`;
-      this.$('ex-save-gif').href = `${base}?format=gif`;
-      this.$('ex-save-mp4').href = `${base}?format=mp4`;
+      this.recordingLinks();
       if (on && !this.x.running) this.x.setRunning(true);
     } catch (err) { this.x.fail(err); }
+  }
+
+  // the downloads at the chosen size and frame rate
+  recordingLinks() {
+    const base = `/api/live/${this.x.sid}/recording`;
+    const opts = `every=${this.$('ex-rec-every').value}&fps=${this.$('ex-rec-fps').value}`;
+    this.$('ex-save-gif').href = `${base}?format=gif&${opts}`;
+    this.$('ex-save-mp4').href = `${base}?format=mp4&${opts}`;
   }
 
   // a new simulation (model or grid changed): nothing recorded, nothing to undo
