@@ -6,6 +6,10 @@ archive."""
 
 from __future__ import annotations
 
+import fcntl
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +36,18 @@ def _refused(argv, capsys, *fragments) -> str:
 def _left(folder: Path, *keep: str) -> list[str]:
     """What is in ``folder`` besides the test's own inputs ``keep``."""
     return sorted(p.name for p in folder.iterdir() if p.name not in keep)
+
+
+@contextmanager
+def _read_end_open(fifo: Path) -> Iterator[None]:
+    """``fifo``'s read end held open, its buffer raised to 1 MiB, while the block runs: code
+    that (wrongly) writes into it finishes and fails its test instead of blocking for ever."""
+    fd = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        fcntl.fcntl(fd, getattr(fcntl, "F_SETPIPE_SZ", 1031), 2**20)
+        yield
+    finally:
+        os.close(fd)
 
 
 def _pattern_png(path: Path, side: int = 96) -> Path:
@@ -74,3 +90,52 @@ def test_match_into_an_unwritable_place_is_one_line(tmp_path, capsys):
     _refused(["match", picture, "--out", "/proc/morphogen-answer", "--quiet"], capsys,
              "/proc")
     assert not Path("/proc/.morphogen-answer.match-work").exists()
+
+
+# --- 6. export-web ------------------------------------------------------------------------
+
+EXPORT = ["export-web", "gray-scott", "--size", "16x16", "--scheme", "euler"]
+
+
+@pytest.mark.parametrize("case, words", [
+    ("folder", "is a directory"),
+    ("fifo", "FIFO"),
+    ("inside a file", "is not a directory"),
+    ("long name", "bytes long"),
+    ("long name in a new folder", "bytes long"),
+    ("long path", "bytes long"),
+])
+def test_export_web_refuses_an_output_it_cannot_write_and_creates_nothing(case, words,
+                                                                          tmp_path, capsys):
+    (tmp_path / "folder").mkdir()
+    os.mkfifo(tmp_path / "pipe")
+    (tmp_path / "file").write_text("x")
+    out = {"folder": tmp_path / "folder", "fifo": tmp_path / "pipe",
+           "inside a file": tmp_path / "file" / "page.html",
+           "long name": tmp_path / ("a" * 300 + ".html"),
+           "long name in a new folder": tmp_path / "out" / ("a" * 300 + ".html"),
+           "long path": tmp_path.joinpath(*["b" * 200] * 21, "page.html")}[case]
+    with _read_end_open(tmp_path / "pipe"):
+        _refused([*EXPORT, "--out", out], capsys, words)
+    assert _left(tmp_path, "folder", "pipe", "file") == []
+    assert not any((tmp_path / "folder").iterdir())
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux's /proc")
+def test_export_web_into_an_unwritable_place_is_one_line(tmp_path, capsys):
+    _refused([*EXPORT, "--out", "/proc/morphogen-page.html"], capsys, "cannot write")
+
+
+@pytest.mark.parametrize("state, words", [("junk", "not an .npz file"),
+                                          ("/dev/zero", "character device")])
+def test_export_web_refuses_a_junk_or_device_state(state, words, tmp_path, capsys):
+    if state == "junk":
+        state = tmp_path / "junk.npz"
+        state.write_bytes(b"junk\n" * 50)
+    _refused([*EXPORT, "--state", state, "--out", tmp_path / "o" / "page.html"], capsys, words)
+    assert _left(tmp_path, "junk.npz") == []
+
+
+def test_export_web_makes_the_page_folder_it_needs(tmp_path, capsys):
+    assert main([*EXPORT, "--out", str(tmp_path / "new" / "sub" / "page.html")]) == 0
+    assert (tmp_path / "new" / "sub" / "page.html").read_text().startswith("<!")

@@ -33,7 +33,9 @@ def run(args: argparse.Namespace) -> int:
 
     from morphogen.cli.simulate_cmd import config_from_args
     from morphogen.runs.web_page import check_exportable, export_page
+    from morphogen.util.io import check_out_file, write_out_file
 
+    check_out_file(args.out)  # before any work: a folder, FIFO or unwritable place is refused
     is_run = Path(args.source).suffix.lower() == ".json"
     args.config, args.model = (args.source, None) if is_run else (None, args.source)
     config = config_from_args(args)
@@ -47,8 +49,7 @@ def run(args: argparse.Namespace) -> int:
         species = load_config_model(config).species
         state = load_state(args.state, species, tuple(config.size)).astype(np.float32)
     page = export_page(config, state)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(page, encoding="utf-8")
-    print(f"wrote {out} ({len(page.encode()) / 1024:.0f} KiB)")
+    data = page.encode("utf-8")
+    write_out_file(args.out, data)
+    print(f"wrote {args.out} ({len(data) / 1024:.0f} KiB)")
     return 0

@@ -148,10 +148,22 @@ STAGING_EXTRA = 16
 """Bytes a hidden staging name adds to an output's name (``.NAME.XXXXXXXX.new``)."""
 
 
+PATH_MAX = 4096
+"""Longest path (bytes) the usual kernels accept in one call."""
+
+
 def check_out_name(path: str | Path) -> Path:
     """Refuse an output path with a name too long to be staged next to it (the file system's
-    limit minus :data:`STAGING_EXTRA`), before anything is created."""
+    limit minus :data:`STAGING_EXTRA`), or a whole path too long for the kernel, before
+    anything is created."""
     p = Path(path)
+    size = len(os.fsencode(os.path.abspath(p)))
+    if size > PATH_MAX - STAGING_EXTRA - 1:
+        raise MorphogenError(
+            f"output path {str(p)[:40]}... is {size} bytes long; paths are limited to "
+            f"{PATH_MAX - STAGING_EXTRA - 1} bytes (the system allows {PATH_MAX}); choose a "
+            "shorter --out"
+        )
     for part in p.parts:
         size = len(os.fsencode(part))
         if size > NAME_MAX - STAGING_EXTRA:
@@ -200,6 +212,44 @@ def check_writable_dir(path: str | Path) -> Path:
     parent = next((a for a in p.absolute().parents if a.exists()), Path("/"))
     if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
         raise MorphogenError(f"cannot create output directory {p}: {parent} is not writable")
+    return p
+
+
+def check_out_file(path: str | Path) -> Path:
+    """Check, creating nothing, that a file can be written at ``path`` by
+    :func:`write_out_file`: it is absent or a regular file (a directory, FIFO or device is
+    refused by name), and its nearest existing parent is a writable directory. A path that is
+    a symbolic link stands for its target, which is returned."""
+    p = _follow(check_out_name(path))
+    if p.exists():
+        if p.is_dir():
+            raise MorphogenError(f"output {p} is a directory; name a file with --out")
+        if not p.is_file():
+            raise MorphogenError(f"output {p} is {file_kind(p.stat().st_mode)}, not a regular "
+                                 "file; choose another --out")
+    parent = next((a for a in p.absolute().parents if a.exists()), Path("/"))
+    if not parent.is_dir():
+        raise MorphogenError(f"cannot write {p}: {parent} is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise MorphogenError(f"cannot write {p}: {parent} is not writable")
+    return p
+
+
+def write_out_file(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to the file ``path`` atomically (checked by :func:`check_out_file`),
+    making its missing parent directories; on failure they are removed again, so an error
+    leaves nothing behind."""
+    p = check_out_file(path).absolute()
+    made = [a for a in reversed(p.parents) if not a.exists()]
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(p, lambda fh: fh.write(data))
+    except OSError as exc:
+        _remove_made(made)
+        raise MorphogenError(f"cannot write {p}: {exc.strerror}") from None
+    except BaseException:
+        _remove_made(made)
+        raise
     return p
 
 
