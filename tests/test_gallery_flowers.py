@@ -67,13 +67,37 @@ def test_gallery_runs_each_flower_and_writes_the_index(tmp_path: Path, capsys) -
     assert (out / "tiny" / "final.ply").is_file()
 
 
-def test_a_failing_flower_is_one_line_and_the_others_still_run(tmp_path: Path, capsys) -> None:
+def test_a_broken_flower_file_is_one_line_before_anything_is_made(tmp_path: Path,
+                                                                   capsys) -> None:
     broken = _TINY.replace("§4.2", "§4.3").replace('kind = "fields"', 'kind = "nope"')
     examples = _examples(tmp_path, {"tiny.toml": _TINY, "broken.toml": broken})
     out = tmp_path / "out"
     assert main(["gallery", "flowers", "--out", str(out), "--examples", str(examples)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("morphogen: error: broken: stage 1: kind")
+    assert len(err) == 1 and err[0].startswith("morphogen: error: broken ("), err
+    assert "stage 1: kind" in err[0]
+    assert not out.exists()  # no index.html, no tiny/ run for a gallery that cannot be whole
+
+
+def test_a_flower_failing_as_it_runs_is_one_line_and_the_others_still_run(
+        tmp_path: Path, capsys, monkeypatch) -> None:
+    from morphogen.errors import MorphogenError
+    from morphogen.flowers import pipeline
+
+    examples = _examples(tmp_path, {"tiny.toml": _TINY,
+                                    "other.toml": _TINY.replace("§4.2", "§4.3")})
+    real = pipeline.run_pipeline
+
+    def run(p, out, **kw):
+        if Path(out).name == "other":
+            raise MorphogenError("stage 1 blew up")
+        return real(p, out, **kw)
+
+    monkeypatch.setattr(pipeline, "run_pipeline", run)
+    out = tmp_path / "out"
+    assert main(["gallery", "flowers", "--out", str(out), "--examples", str(examples)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["morphogen: error: other: stage 1 blew up"]
     page = (out / "index.html").read_text()
     assert re.findall(r'<img src="([^"]+)"', page) == ["tiny/01-colour/out.png"]
 

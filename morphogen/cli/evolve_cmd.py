@@ -9,7 +9,7 @@ from pathlib import Path
 from morphogen.cli import options
 from morphogen.errors import MorphogenError
 from morphogen.models.registry import load_model
-from morphogen.search.archive import Archive
+from morphogen.search.archive import Archive, archive_path
 from morphogen.search.evaluate import FITNESS_KINDS, SEARCH_SIZE, Problem, policy_problem
 from morphogen.search.executors import EXECUTORS, make_executor, split_notice
 from morphogen.search.fitness import ask_selection
@@ -163,11 +163,18 @@ def run(args: argparse.Namespace) -> int:
                                  **options_for)
     else:
         problem = problem_from_args(args)
+        if problem.fitness == "user" and not stdin_can_answer():
+            raise MorphogenError("--fitness user asks for each generation's favourites on "
+                                 "standard input, which is empty or not a terminal that can "
+                                 "answer; run it in a terminal, or pipe the selections in")
         strategy = strategy_from_args(args)
         gradient = STRATEGIES[strategy["name"]].needs_gradient
         executor = make_executor(args.executor, problem, gradient=gradient,
                                  population=args.population, **options_for)  # validates first
         make_strategy(strategy)  # checks --population, --elitism, --tournament
+        new_archive = [p for p in (archive_path(args.archive), archive_path(args.archive).parent)
+                       if not p.exists()]
+        new_folder = not (args.out and Path(args.out).exists())
         archive = Archive(args.archive)
         run_id, _ = start(problem, strategy, generations=args.generations or GENERATIONS,
                           seed=problem.seed,
@@ -175,11 +182,62 @@ def run(args: argparse.Namespace) -> int:
     print(f"run {run_id} in {archive.run(run_id)['dir']}", flush=True)
     if args.executor == "auto" and executor.name == "ray":
         print(split_notice(executor.batches), flush=True)
-    result = evolve(run_id, archive, executor, select=ask_selection,
-                    progress=options.show_progress(args), log=lambda line: print(line, flush=True))
+    try:
+        result = evolve(run_id, archive, executor, select=ask_selection,
+                        progress=options.show_progress(args),
+                        log=lambda line: print(line, flush=True))
+    except MorphogenError:
+        if not args.resume and not archive.generations(run_id):
+            _forget(run_id, archive, new_archive, new_folder)  # refused before generation 1
+        raise
     genes = gene_summary([g.name for g in problem.genes], result.best_genome)
     print(f"best fitness {result.best_fitness:.4f}: {genes}; see {result.directory}/best/")
     return 0
+
+
+def stdin_can_answer() -> bool:
+    """Whether standard input may still bring a person's answer: ``False`` when it is closed,
+    a device that is not a terminal (``/dev/null``), a file read to its end, or a pipe whose
+    writer has closed without writing; ``True`` otherwise (a terminal, a pipe still open)."""
+    import os
+    import select
+    import stat
+    import sys
+
+    stream = sys.stdin
+    if stream is None or stream.closed:
+        return False
+    try:
+        fd = stream.fileno()
+    except (OSError, ValueError):
+        return True  # not a file descriptor (an embedding's own stream): it may answer
+    if os.isatty(fd):
+        return True
+    info = os.fstat(fd)
+    if stat.S_ISCHR(info.st_mode):
+        return False
+    if stat.S_ISREG(info.st_mode):
+        return os.lseek(fd, 0, os.SEEK_CUR) < info.st_size
+    if stat.S_ISFIFO(info.st_mode) and select.select([fd], [], [], 0)[0]:
+        return bool(stream.buffer.peek(1))  # readable now: data, or the end of input
+    return True
+
+
+def _forget(run_id: str, archive: Archive, new_archive: list[Path], new_folder: bool) -> None:
+    """Undo a new run that stopped before its first generation was recorded: its archive row,
+    its folder if this command made it, and the archive file (and its folder) if this command
+    made them."""
+    import shutil
+
+    directory = Path(archive.run(run_id)["dir"])
+    archive.delete_run(run_id)
+    if new_folder:
+        shutil.rmtree(directory, ignore_errors=True)
+    if archive.path in new_archive and not archive.runs():
+        for suffix in ("", "-wal", "-shm", "-journal"):
+            Path(f"{archive.path}{suffix}").unlink(missing_ok=True)
+        if archive.path.parent in new_archive:
+            shutil.rmtree(archive.path.parent, ignore_errors=True)
 
 
 def _refuse_new_run_options(args: argparse.Namespace) -> None:

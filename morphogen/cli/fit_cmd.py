@@ -23,7 +23,13 @@ from morphogen.search.gradient import (
     fit,
     target_field_image,
 )
-from morphogen.util.io import check_writable_dir, ensure_writable_dir, write_atomic, write_json
+from morphogen.util.io import (
+    check_input_file,
+    check_writable_dir,
+    ensure_writable_dir,
+    write_atomic,
+    write_json,
+)
 from morphogen.util.progress import ProgressBar
 
 
@@ -66,8 +72,7 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     model = load_model(args.model)
     genes = tuple(Gene.parse(g) for g in args.gene)
     check_genes(genes, list(model.params))
-    if not Path(args.target).is_file():
-        raise MorphogenError(f"target image {args.target} does not exist")
+    check_input_file(args.target, "target image", limit=float("inf"))  # a FIFO named, too
     run = options.run_settings(args, "fit", DEFAULTS)
     problem = Problem(
         model=args.model, genes=genes, model_source=model.source, preset=run["preset"],
@@ -105,6 +110,9 @@ def run(args: argparse.Namespace) -> int:
                      seed=problem.seed, callback=report)
     finally:
         bar.close()
+    if not np.isfinite(result.best_fitness):
+        raise MorphogenError("every iteration of the fit gave a NaN or infinite loss; try a "
+                             "smaller --learning-rate, another --start or fewer --steps")
     best = {g.name: float(v) for g, v in zip(problem.genes, result.best_genome, strict=True)}
     ensure_writable_dir(out)  # only once the fit has passed its checks and finished
     write_json(out / "fit.json", {

@@ -6,9 +6,10 @@ older mesh pipelines ``examples/mimulus-mesh-pipeline.toml`` (§4.5) and
 ``examples/kohleria-mesh-pipeline.toml`` (§4.7), is run into ``DIR/NAME/`` with
 :func:`morphogen.flowers.pipeline.run_pipeline`; ``DIR/index.html`` shows the last stage's picture
 of each with its name and section. A file that is not a pipeline (a model file such as
-``dianthus-diffusion.toml``, which has no ``[mesh]`` table) is not a flower and is skipped. A
-flower that fails is reported in one line and left off the page; the others still run, and the
-command exits with status 2.
+``dianthus-diffusion.toml``, which has no ``[mesh]`` table) is not a flower and is skipped.
+Every selected pipeline is loaded and checked before anything is made: a broken one is one
+line, exit status 2, and nothing is written. A flower that fails while it runs is reported in
+one line and left off the page; the others still run, and the command exits with status 2.
 """
 
 from __future__ import annotations
@@ -53,18 +54,25 @@ def run_gallery(out: str | Path, *, only: list[str] | None = None, examples: Pat
     """
     from morphogen.flowers.pipeline import load_pipeline, run_pipeline
     from morphogen.render.gallery import write_gallery
-    from morphogen.util.io import ensure_writable_dir
+    from morphogen.util.io import check_writable_dir, ensure_writable_dir
 
     flowers = _select(find_flowers(Path(examples)), only)
     if not flowers:
         raise MorphogenError(f"no flower pipelines in {Path(examples) / 'flowers'}")
+    pipelines = {}
+    for flower in flowers:  # every file checked before anything is made
+        try:
+            pipelines[flower.name] = load_pipeline(flower.path)
+        except MorphogenError as exc:
+            raise MorphogenError(f"{flower.name} ({flower.path}): {exc}") from None
+    check_writable_dir(out)
     out_dir = ensure_writable_dir(out)
     items, errors = [], []
     for i, flower in enumerate(flowers, 1):
         print(f"[{i}/{len(flowers)}] {flower.caption}: {flower.path.name}", flush=True)
         started = time.perf_counter()
         try:
-            run_pipeline(load_pipeline(flower.path), out_dir / flower.name, resume=resume)
+            run_pipeline(pipelines[flower.name], out_dir / flower.name, resume=resume)
             png = _picture(out_dir / flower.name)
         except MorphogenError as exc:
             errors.append(f"{flower.name}: {exc}")

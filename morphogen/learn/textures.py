@@ -42,10 +42,7 @@ def load_texture(path: str | Path, size: int | None = None) -> np.ndarray:
     Raises:
         MorphogenError: the file is missing or not an image.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise MorphogenError(f"target image {path} does not exist")
-    check_image(path, "target image")  # header and size, before decoding
+    path = check_image(path, "target image")  # missing, FIFO, device named; header and size
     try:
         img = np.asarray(iio.imread(path))
     except Exception:  # imageio raises many types (and multi-line messages) for bad files
@@ -60,6 +57,9 @@ def prepare_texture(img: np.ndarray, size: int | None = None) -> np.ndarray:
     img = np.asarray(img)
     scale = 255.0 if img.dtype == np.uint8 else (65535.0 if img.dtype == np.uint16 else 1.0)
     img = img.astype(np.float32) / scale
+    if not np.all(np.isfinite(img)):
+        raise MorphogenError("target image holds NaN or infinite values (a float image with "
+                             "missing data?); give a picture of finite values")
     if img.ndim == 2:
         img = np.repeat(img[..., None], 3, axis=-1)
     if img.ndim != 3 or img.shape[-1] not in (1, 3, 4):

