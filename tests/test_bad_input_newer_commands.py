@@ -224,3 +224,42 @@ def test_evolve_user_run_ended_before_its_first_choice_is_forgotten(tmp_path, ca
                                       "--out", tmp_path / "run"]]) == 2
     assert "no selection given" in capsys.readouterr().err
     assert _left(tmp_path) == []
+
+
+# --- 8. decoded picture size --------------------------------------------------------------
+
+
+def _big_stripes_png(path: Path, side: int = 6300) -> Path:
+    """A small file that decodes to ``side``² pixels of stripes 60 pixels apart."""
+    row = ((np.arange(side) // 30) % 2 * 255).astype(np.uint8)
+    Image.fromarray(np.broadcast_to(row, (side, side))).save(path, compress_level=1)
+    return path
+
+
+def test_a_large_picture_is_reduced_while_decoding_not_after(tmp_path):
+    """A 6300² PNG made match hold 3.4 GB of floats before it was reduced to 384²; it is now
+    reduced while still 8-bit, and its scale still quotes wavelengths in its own pixels."""
+    import tracemalloc
+
+    from morphogen.match.picture import WORK_SIDE, load_picture
+
+    path = _big_stripes_png(tmp_path / "big.png")
+    tracemalloc.start()
+    try:
+        picture = load_picture(path)
+        data = path.read_bytes()
+        tracemalloc.reset_peak()
+        upload = load_picture(data)  # an upload's bytes take the same road
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 64 * 2**20, f"{peak / 2**20:.0f} MiB of arrays while reading"
+    assert max(picture.field.shape) == WORK_SIDE and picture.scale == pytest.approx(6300 / 384)
+    np.testing.assert_array_equal(picture.field, upload.field)
+
+
+def test_a_crop_of_a_large_picture_is_taken_before_it_is_reduced(tmp_path):
+    from morphogen.match.picture import load_picture
+
+    picture = load_picture(_big_stripes_png(tmp_path / "big.png", 1200), crop=(0, 0, 600, 300))
+    assert picture.field.shape == (192, 384) and picture.scale == pytest.approx(600 / 384)

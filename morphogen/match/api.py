@@ -79,7 +79,7 @@ def describe_picture(picture: Picture) -> Signature:
     return signature(picture.field, periodic=False, mask=picture.mask)
 
 
-def load_target(image: str | Path | np.ndarray, *, channel: str = "auto",
+def load_target(image: str | Path | bytes | np.ndarray, *, channel: str = "auto",
                 crop: tuple[int, int, int, int] | None = None,
                 field: str | None = None) -> Picture:
     """A picture file or array (:func:`~morphogen.match.picture.load_picture`), or a mesh file
@@ -94,7 +94,7 @@ def load_target(image: str | Path | np.ndarray, *, channel: str = "auto",
 
 
 def match(
-    image: str | Path | np.ndarray,
+    image: str | Path | bytes | np.ndarray,
     *,
     models: Sequence[str] = DEFAULT_MODELS,
     genes: Sequence[str] = (),

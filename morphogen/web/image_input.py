@@ -78,15 +78,20 @@ def decode_picture(text: object) -> np.ndarray:
             with Image.open(io.BytesIO(data)) as img:
                 _check_pixels(*img.size, "picture")
                 img.load()
-                rgba = np.asarray(img.convert("RGBA"), np.float32) / 255.0
+                rgba = np.asarray(img.convert("RGBA"))  # 8-bit until the last step
     except MorphogenError:
         raise
     except (Image.DecompressionBombError, Image.DecompressionBombWarning):
         raise MorphogenError("the picture is too large to decode safely; reduce it first") from None
     except Exception:  # a malformed file must come back as one line, whatever the decoder says
         raise MorphogenError("the picture could not be read; is the file complete?") from None
-    alpha = rgba[..., 3:]
-    return rgba[..., :3] * alpha + (1.0 - alpha)
+    rgb = rgba[..., :3].astype(np.float32)
+    if np.any(rgba[..., 3] < 255):  # composite on white, one channel at a time
+        alpha = rgba[..., 3].astype(np.float32) / 255.0
+        for c in range(3):
+            rgb[..., c] = rgb[..., c] * alpha + 255.0 * (1.0 - alpha)
+    rgb /= 255.0
+    return rgb
 
 
 def decode_png(text: object) -> np.ndarray:
