@@ -263,3 +263,41 @@ def test_a_crop_of_a_large_picture_is_taken_before_it_is_reduced(tmp_path):
 
     picture = load_picture(_big_stripes_png(tmp_path / "big.png", 1200), crop=(0, 0, 600, 300))
     assert picture.field.shape == (192, 384) and picture.scale == pytest.approx(600 / 384)
+
+
+# --- 9. a 4 200-character --out; mesh make with NaN options or a huge scale ------------------
+
+
+def _long(tmp_path: Path, leaf: str) -> Path:
+    """A path of about 4 200 characters (the kernel takes 4 096) under ``tmp_path``."""
+    return tmp_path.joinpath(*["c" * 200] * 21, leaf)
+
+
+@pytest.mark.parametrize("argv", [
+    ["simulate", "gray-scott", "--size", "16x16", "--steps", "2", "--quiet", "--out"],
+    ["mesh", "make", "petal", "--out"],
+    ["export-web", "gray-scott", "--size", "16x16", "--out"],
+    ["train", "--target", "synthetic:dots", "--size", "16", "--iterations", "1", "--quiet",
+     "--out"],
+])
+def test_a_4200_character_out_path_is_one_line(argv, tmp_path, capsys):
+    leaf = "p.ply" if argv[0] == "mesh" else "o"
+    _refused([*argv, _long(tmp_path, leaf)], capsys, "bytes long")
+    assert _left(tmp_path) == []
+
+
+def test_match_with_a_4200_character_out_path_is_one_line(tmp_path, capsys):
+    picture = _pattern_png(tmp_path / "p.png")
+    _refused(["match", picture, "--quiet", "--out", _long(tmp_path, "o")], capsys, "bytes long")
+    assert _left(tmp_path, "p.png") == []
+
+
+@pytest.mark.parametrize("flags, words", [
+    (["--set", "notch=nan"], "notch must be a finite number"),
+    (["--set", "notch=inf"], "notch must be a finite number"),
+    (["--scale", "1e308"], "far too fine"),
+    (["--scale", "1e308", "--edge", "1e307"], "beyond 1e+30"),
+])
+def test_mesh_make_refuses_non_finite_options_and_absurd_scales(flags, words, tmp_path, capsys):
+    _refused(["mesh", "make", "petal", *flags, "--out", tmp_path / "p.ply"], capsys, words)
+    assert _left(tmp_path) == []

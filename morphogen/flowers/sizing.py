@@ -58,7 +58,9 @@ def estimate_vertices(shape: str, edge: float, **options: Any) -> int:
         except MorphogenError:
             if coarse == _COARSE[-1]:
                 raise
-    return int(round(2.0 * area / (np.sqrt(3.0) * edge**2)))
+    with np.errstate(over="ignore", divide="ignore"):
+        estimate = 2.0 * area / (np.sqrt(3.0) * float(edge) ** 2)
+    return int(round(min(estimate, 1e18)))  # an edge whose square underflows: far over any limit
 
 
 def make_shape(shape: str, *, edge: float, scale: float = 1.0, **options: Any) -> Mesh:
@@ -74,8 +76,14 @@ def make_shape(shape: str, *, edge: float, scale: float = 1.0, **options: Any) -
         if isinstance(value, bool) or not isinstance(value, int | float) or not (
                 np.isfinite(value) and value > 0):
             raise MorphogenError(f"{label} must be a positive number, got {value!r}")
+    for label, value in options.items():
+        _check_finite(label, value)
     # rounded to 12 digits, so that e.g. edge 0.6 at scale 24 meshes exactly as 0.025 at scale 1
     local = float(f"{float(edge) / float(scale):.12g}")
+    if local < 1e-9:
+        raise MorphogenError(
+            f"edge {edge:g} at scale {scale:g} is an edge of {local:.3g} on the {shape} at its own "
+            "size, far too fine to mesh; raise edge or lower scale")
     count = estimate_vertices(shape, local, **options)
     if count > MAX_VERTICES:
         smallest = float(edge) * np.sqrt(count / MAX_VERTICES)
@@ -84,5 +92,26 @@ def make_shape(shape: str, *, edge: float, scale: float = 1.0, **options: Any) -
             f"{count:,} vertices, over the limit of {MAX_VERTICES:,}; use edge >= {smallest:.3g}")
     mesh = _call(shape, local, options)
     if scale != 1.0:
-        mesh = mesh.replace(vertices=mesh.vertices * float(scale))
+        with np.errstate(over="ignore"):
+            vertices = mesh.vertices * float(scale)
+        if not np.all(np.abs(vertices) <= MAX_COORDINATE):
+            raise MorphogenError(
+                f"scale {scale:g} puts the {shape}'s vertices beyond {MAX_COORDINATE:g} mesh "
+                "units, more than a PLY file's 32-bit numbers hold safely; use a smaller scale")
+        mesh = mesh.replace(vertices=vertices)
     return mesh
+
+
+MAX_COORDINATE = 1e30
+"""Largest vertex coordinate a scaled shape may have (a PLY file stores 32-bit floats, which end
+at 3.4e38; areas, squared lengths and the diffusion operators need room below that)."""
+
+
+def _check_finite(label: str, value: Any) -> None:
+    """Refuse a generator option that is, or holds, a NaN or infinite number (it gave a
+    traceback deep inside the meshing)."""
+    if isinstance(value, list | tuple):
+        for item in value:
+            _check_finite(label, item)
+    elif isinstance(value, float) and not np.isfinite(value):
+        raise MorphogenError(f"{label} must be a finite number, got {value!r}")
