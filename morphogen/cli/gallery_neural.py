@@ -106,7 +106,8 @@ def rule_row(name: str, source: str, out: Path, cfg: NeuralGallery, log=print) -
     from morphogen.learn.textures import synthetic_texture, to_uint8
     from morphogen.learn.train_library import TARGET_SIZE
     from morphogen.models.registry import load_model
-    from morphogen.render import mosaic, write_png
+    from morphogen.render import write_png
+    from morphogen.render.mosaic import mosaic
 
     folder = out / name
     model = load_model(source)

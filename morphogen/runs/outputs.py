@@ -20,7 +20,6 @@ import numpy as np
 from morphogen.models.model import Model
 from morphogen.render import (
     colour_limits,
-    mosaic,
     slice_indices,
     slice_montage,
     state_image,
@@ -29,6 +28,7 @@ from morphogen.render import (
     write_animation,
     write_png,
 )
+from morphogen.render.mosaic import mosaic
 from morphogen.util.io import write_npz
 
 if TYPE_CHECKING:

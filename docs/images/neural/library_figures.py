@@ -31,7 +31,8 @@ from morphogen.learn.textures import synthetic_texture, to_uint8
 from morphogen.learn.train_library import TARGET_SIZE, TARGETS
 from morphogen.models.library import get_model
 from morphogen.models.neural import rgb_channels
-from morphogen.render import mosaic, upscale, write_png
+from morphogen.render import upscale, write_png
+from morphogen.render.mosaic import mosaic
 
 HERE = Path(__file__).parent
 

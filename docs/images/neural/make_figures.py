@@ -22,7 +22,8 @@ from morphogen.engine.simulate import simulate
 from morphogen.learn.seeds import seed_state
 from morphogen.learn.textures import state_to_rgb, to_uint8
 from morphogen.models.neural import load_neural_model
-from morphogen.render import mosaic, upscale, write_png
+from morphogen.render import upscale, write_png  # noqa: E402
+from morphogen.render.mosaic import mosaic
 
 HERE = Path(__file__).parent
 
