@@ -201,11 +201,11 @@ def test_guard_estimates_are_the_formula():
 
 
 def test_reaching_the_model_ceiling_is_a_blow_up(tmp_path, capsys):
-    # Turing's clamp [0, 1e6] guards overflow; rho=5 drives v into it within 2000 steps
-    # (on 32x32; a 16x16 grid has too few unstable modes to leave the ground state).
+    # Turing's clamp [0, 1e6] guards overflow; rho=5 drives v into it within 2000 steps of
+    # dt = 0.16 (on 32x32; a 16x16 grid has too few unstable modes to leave the ground state)
     out = tmp_path / "o"
-    argv = ["simulate", "turing", "--size", "32x32", "--steps", "2000", "-p", "rho=5",
-            "--unsafe", "--quiet", "--out", str(out)]
+    argv = ["simulate", "turing", "--size", "32x32", "--steps", "2000", "--dt", "0.16",
+            "-p", "rho=5", "--unsafe", "--quiet", "--out", str(out)]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "reached the model's ceiling 1e+06" in err and err.count("\n") == 1

@@ -20,6 +20,7 @@ from morphogen.models.text.equations import parse_model
 from morphogen.models.text.sbml import read_antimony, read_sbml, to_antimony, to_sbml
 from morphogen.search.networks.draw import draw_network, reaction_graph
 from morphogen.search.networks.evolve import Evaluation, save_state
+from morphogen.search.networks.operators import Operators
 from morphogen.search.networks.export import genome_network, run_network, table2_network
 from morphogen.search.networks.genome import (
     NetworkSpec,
@@ -279,7 +280,8 @@ def test_run_folder_export_takes_the_best_genome_of_the_last_generation(tmp_path
     spec = genomes[0][1]
     pop = stack([g for g, _ in genomes])
     history = np.array([[9.0, 0.0, 0.0], [-1.0, 7.5, 2.0]], np.float32)
-    meta = {"spec": asdict(spec), "ev": asdict(Evaluation(dt=0.25, t_start=100.0, rounds=3))}
+    meta = {"spec": asdict(spec), "ops": asdict(Operators()), "population": 3, "seed": 0,
+            "ev": asdict(Evaluation(dt=0.25, t_start=100.0, rounds=3))}
     save_state(tmp_path / "state.npz", pop, history, 2, meta)
     net, fitness = run_network(tmp_path)
     assert fitness == 7.5 and (net.dt, net.t_end) == (0.25, 500.0)
