@@ -94,9 +94,11 @@ def pixels(f: Any, lo: Any, hi: Any) -> Any:
 def remembered_ground(model: Model, size: int = GROUNDS_SIZE) -> Model:
     """``model`` with a ``ground`` that remembers :meth:`Model.ground_state` per parameter set.
 
-    The key is the parameters' spatial means (what ``ground_state`` solves with), so each set
-    is solved once however often a start, a ``dt`` limit or a brush asks; the ``size`` latest
-    sets are kept. A model with a closed-form ``ground`` is returned as it is.
+    The key is the parameters' spatial means (what ``ground_state`` solves with) rounded to
+    float32, the precision the live view computes in, so each set is solved once however often
+    a start, a ``dt`` limit (taken of the parameters as the engine casts them) or a brush asks;
+    the ``size`` latest sets are kept. A model with a closed-form ``ground`` is returned as it
+    is.
     """
     if model.ground is not None:
         return model
@@ -104,7 +106,7 @@ def remembered_ground(model: Model, size: int = GROUNDS_SIZE) -> Model:
     lock = threading.Lock()
 
     def ground(params: Mapping[str, Any]) -> np.ndarray:
-        key = tuple(sorted((k, float(np.mean(np.asarray(v, np.float64))))
+        key = tuple(sorted((k, float(np.float32(np.mean(np.asarray(v, np.float64)))))
                            for k, v in params.items()))
         with lock:
             if key in solved:
