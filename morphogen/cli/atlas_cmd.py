@@ -30,6 +30,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--watch", default="4x50", metavar="COUNTxGAP",
                    help="with --classify: states kept at the end for the temporal descriptors "
                    "(default 4x50: 5 states 50 steps apart)")
+    p.add_argument("--analysis", action="store_true",
+                   help="also draw the linear analysis' saddle-node, Hopf and Turing boundaries "
+                   "over the tiles, DIR/analysis.png (docs/analysis.md)")
     p.add_argument("--out", default=None, help="output directory (default out/atlas-MODEL)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -80,8 +83,13 @@ def _atlas(args: argparse.Namespace, model: Any, x: Any, y: Any, run: dict[str, 
     if watch and len(grid.shape) != 2:
         raise MorphogenError("--classify works on 2D grids; give --size as WxH")
     out = check_writable_dir(args.out or Path("out") / f"atlas-{Path(args.model).stem}")
+    plane = None
+    if args.analysis:  # checked before the atlas runs
+        from morphogen.runs.atlas_analysis import plane_values
+
+        plane = plane_values(model, grid, run["params"], x.name, y.name)
     atlas = compute_atlas(model, grid, x, y, params=run["params"], steps=steps, dt=dt,
-                          init=run["init"], seed=run["seed"],
+                          init=run["init"], init_options=run["init_options"], seed=run["seed"],
                           progress=options.show_progress(args), unsafe=run["unsafe"],
                           watch=watch, scheme=plan.scheme)
     ensure_writable_dir(out)  # only once the run has passed its checks and finished
@@ -96,7 +104,7 @@ def _atlas(args: argparse.Namespace, model: Any, x: Any, y: Any, run: dict[str, 
     if report:
         warnings.warn(report, MorphogenWarning, stacklevel=1)
         title += f", {int(unstable.sum())} numerically unstable"
-    families = None
+    families, labels = None, None
     if watch:
         labels, descriptors = classify_atlas(atlas, index)
         write_families(out / "families.csv", atlas, labels, descriptors)
@@ -105,6 +113,13 @@ def _atlas(args: argparse.Namespace, model: Any, x: Any, y: Any, run: dict[str, 
         title += ", families: " + ", ".join(f"{f} {n}" for f, n in families.items())
     write_png(out / "atlas.png", atlas_image(tiles, x.name, x.values, y.name, y.values,
                                              title=title))
+    analysis = None
+    if plane is not None:
+        from morphogen.runs.atlas_analysis import write_atlas_analysis
+
+        analysis = write_atlas_analysis(out, model, grid, (x.name, x.values),
+                                        (y.name, y.values), plane, labels, ~unstable,
+                                        COLOURS, title)
     write_npz(out / "atlas.npz", {species: fields, x.name: x.values, y.name: y.values,
                                   "valid": atlas.valid, "unstable": unstable})
     write_json(out / "atlas.json", {
@@ -115,6 +130,7 @@ def _atlas(args: argparse.Namespace, model: Any, x: Any, y: Any, run: dict[str, 
         "unstable": [{x.name: float(x.values[j]), y.name: float(y.values[i])}
                      for i, j in zip(*np.nonzero(unstable), strict=True)],
         "wall_time_s": round(atlas.wall_time, 3), "families": families,
+        **({"analysis": analysis} if analysis is not None else {}),
         **({"precision": run["precision"]} if run["precision"] != "float32" else {}),
     })
     print(f"wrote {out}/atlas.png ({len(y.values)}x{len(x.values)} runs, "

@@ -124,6 +124,7 @@ def compute_atlas(
     steps: int,
     dt: float,
     init: str | None = None,
+    init_options: dict[str, Any] | None = None,
     seed: int = 0,
     progress: bool = False,
     scheme: str = "euler",
@@ -136,6 +137,8 @@ def compute_atlas(
     Args:
         params: the other parameters (defaults from the model); ``x.name`` and ``y.name`` must
             be model parameters.
+        init, init_options: every tile's initial condition
+            (:func:`morphogen.engine.initial.make_initial`; default the model's).
         unsafe: skip the explicit stability check (done over every member, since a diffusion
             coefficient may be an axis).
         watch: ``(count, gap)``: also keep ``count + 1`` states ``gap`` steps apart at the end
@@ -146,7 +149,8 @@ def compute_atlas(
     ny, nx = len(y.values), len(x.values)
     sample = dict(values)
     sample.update({x.name: float(x.values.mean()), y.name: float(y.values.mean())})
-    u0 = make_initial(init or model.init, model, domain, sample, seed=seed)
+    u0 = make_initial(init or model.init, model, domain, sample, seed=seed,
+                      **(init_options or {}))
     u0 = np.broadcast_to(u0, (ny * nx, *u0.shape))
     # the run policy: auto resolved over the whole batch, dt checked against every member
     scheme = resolve_run(model, domain, batch, scheme=scheme, dt=dt, steps=steps,

@@ -195,7 +195,7 @@ SETTINGS: tuple[Setting, ...] = (
             help="option of the initial condition, e.g. count=20, or for blobs spacing=16 "
             "sigma=2 (cells per blob, width in cells) (repeatable)", flag="--init-opt",
             metavar="NAME=VALUE", arg="append", parse="init_options",
-            commands=("simulate", "evolve", "fit")),
+            commands=("simulate", "evolve", "fit", "atlas")),
     Setting("noise", "dict[str, Any] | None", "NoiseSchema | None",
             help="additive or multiplicative noise, e.g. 0.01:multiplicative:u", flag="--noise",
             metavar="AMP[:KIND[:SPECIES]]", parse="noise", commands=("simulate",)),
