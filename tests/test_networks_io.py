@@ -20,7 +20,6 @@ from morphogen.models.text.equations import parse_model
 from morphogen.models.text.sbml import read_antimony, read_sbml, to_antimony, to_sbml
 from morphogen.search.networks.draw import draw_network, reaction_graph
 from morphogen.search.networks.evolve import Evaluation, save_state
-from morphogen.search.networks.operators import Operators
 from morphogen.search.networks.export import genome_network, run_network, table2_network
 from morphogen.search.networks.genome import (
     NetworkSpec,
@@ -29,6 +28,7 @@ from morphogen.search.networks.genome import (
     table2_genome,
     table2_spec,
 )
+from morphogen.search.networks.operators import Operators
 from morphogen.search.networks.reaction import genome_params, padded_reaction
 
 SPOTS = """
