@@ -9,6 +9,7 @@ edge of the region with a Turing-unstable state. Axes in parameter units, ``y`` 
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -79,7 +80,7 @@ def atlas_analysis_png(path: str | Path, x: tuple[str, np.ndarray], y: tuple[str
         handles.append(Line2D([], [], color=colour, linestyle=style, lw=1.6, label=name))
     ax.set_xlabel(xl)
     ax.set_ylabel(yl)
-    ax.set_title(title, fontsize=9)
+    ax.set_title("\n".join(textwrap.wrap(title, 90)), fontsize=8)
     ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0),
               frameon=False)
     fig.tight_layout()
