@@ -301,3 +301,73 @@ def test_match_with_a_4200_character_out_path_is_one_line(tmp_path, capsys):
 def test_mesh_make_refuses_non_finite_options_and_absurd_scales(flags, words, tmp_path, capsys):
     _refused(["mesh", "make", "petal", *flags, "--out", tmp_path / "p.ply"], capsys, words)
     assert _left(tmp_path) == []
+
+
+# --- 10. a FIFO, device or folder is named as such, never "not found" -----------------------
+
+
+def _odd(tmp_path: Path, kind: str, name: str) -> Path | str:
+    """A FIFO or a folder called ``name`` under ``tmp_path``, or ``/dev/zero``."""
+    if kind == "device":
+        return "/dev/zero"
+    path = tmp_path / name
+    os.mkfifo(path) if kind == "fifo" else path.mkdir()
+    return path
+
+
+WORDS = {"fifo": "FIFO", "folder": "directory", "device": "character device"}
+
+
+@pytest.mark.parametrize("kind", ["fifo", "folder"])
+def test_simulate_names_a_model_file_that_is_not_a_file(kind, tmp_path, capsys):
+    model = _odd(tmp_path, kind, "m.toml")
+    err = _refused(["simulate", model, "--size", "8x8", "--steps", "1", "--quiet", "--out",
+                    tmp_path / "o"], capsys, WORDS[kind])
+    assert "not found" not in err
+    assert _left(tmp_path, "m.toml") == []
+
+
+def test_simulate_names_a_device_given_as_model(tmp_path, capsys):
+    _refused(["simulate", "/dev/zero", "--size", "8x8", "--out", tmp_path / "o"], capsys,
+             "character device")
+    assert _left(tmp_path) == []
+
+
+def test_train_resume_names_a_checkpoint_that_is_a_folder(tmp_path, capsys):
+    (tmp_path / "run" / "checkpoint.npz").mkdir(parents=True)
+    _refused(["train", "--resume", tmp_path / "run"], capsys, "is a directory")
+
+
+def test_networks_export_names_a_state_that_is_a_fifo(tmp_path, capsys):
+    (tmp_path / "run").mkdir()
+    os.mkfifo(tmp_path / "run" / "state.npz")
+    _refused(["networks", "export", tmp_path / "run", "--out", tmp_path / "n.toml"], capsys,
+             "FIFO")
+    assert not (tmp_path / "n.toml").exists()
+
+
+@pytest.mark.parametrize("kind", ["device", "fifo", "folder"])
+@pytest.mark.parametrize("command", [["serve", "--port", "0"], ["runs"]])
+def test_a_run_archive_that_is_not_a_file_is_refused_at_start(command, kind, tmp_path, capsys,
+                                                              monkeypatch):
+    pytest.importorskip("fastapi")
+    monkeypatch.setattr("uvicorn.Server.run", lambda *a, **k: None)  # a server that started ends
+    archive = _odd(tmp_path, kind, "index.sqlite")
+    _refused([*command, "--archive", archive], capsys, WORDS[kind])
+
+
+def test_serve_refuses_a_junk_archive_at_start(tmp_path, capsys, monkeypatch):
+    pytest.importorskip("fastapi")
+    monkeypatch.setattr("uvicorn.Server.run", lambda *a, **k: None)  # a server that started ends
+    (tmp_path / "index.sqlite").write_bytes(b"junk\n" * 100)
+    _refused(["serve", "--port", "0", "--archive", tmp_path / "index.sqlite"], capsys,
+             "not a database")
+    assert (tmp_path / "index.sqlite").read_bytes() == b"junk\n" * 100
+
+
+def test_evolve_resume_names_a_run_configuration_that_is_a_fifo(tmp_path, capsys):
+    (tmp_path / "run").mkdir()
+    os.mkfifo(tmp_path / "run" / "config.json")
+    _refused(["evolve", "--resume", tmp_path / "run", "--archive", tmp_path / "a.sqlite"],
+             capsys, "FIFO")
+    assert _left(tmp_path, "run") == []

@@ -51,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
     from morphogen.web.limits import Limits
 
     hosts, token = access(args.host, args.allow_remote)
+    check_archive(args.archive)
     limits = Limits()
     app = create_app(limits=limits, archive=args.archive, allowed_hosts=hosts or LOCAL_HOSTS,
                      warm_up=args.warm_up, examples=args.examples, token=token)
@@ -74,6 +75,16 @@ def run(args: argparse.Namespace) -> int:
     finally:
         sock.close()
     return 0
+
+
+def check_archive(path: str | None) -> None:
+    """Refuse at start a run archive the Runs and Evolve pages could not use: a device, FIFO
+    or folder, or a file that is not a readable SQLite index (an absent one is made by the
+    first run)."""
+    from morphogen.search.archive import Archive, archive_path
+
+    if os.path.lexists(archive_path(path)):
+        Archive(path, create=False)
 
 
 def is_local(host: str) -> bool:

@@ -41,8 +41,10 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
         config = load_run_file(args.config)
     elif args.model:
         config = RunConfig(model=args.model)
-        if Path(args.model).suffix.lower() == ".toml" and not Path(args.model).is_file():
-            raise MorphogenError(f"model file {args.model} not found")
+        if Path(args.model).suffix.lower() == ".toml":
+            from morphogen.util.io import check_input_file
+
+            check_input_file(args.model, "model file")  # missing, or a folder, FIFO, device
     else:
         raise MorphogenError("give a model name or file, or --config run.json")
     given = options.given_settings(args, "simulate")

@@ -133,7 +133,7 @@ def load_checkpoint(directory: str | Path) -> Run:
         MorphogenError: no checkpoint there, or it is damaged or of another layout.
     """
     path = Path(directory) / CHECKPOINT
-    if not path.is_file():
+    if not path.exists():  # anything else there is named by the reader (a FIFO, a folder)
         raise MorphogenError(f"no training checkpoint in {directory} (expected {path})")
     arrays = read_npz(path, "training checkpoint")
     meta = _meta(arrays, path)

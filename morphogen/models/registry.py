@@ -35,6 +35,6 @@ def load_model(name_or_path: str | os.PathLike) -> Model:
         return load_network_file(text)
     from morphogen.models.library import LIBRARY, get_model
 
-    if text not in LIBRARY and os.path.isfile(text):
-        return load_model_file(text)
+    if text not in LIBRARY and os.path.exists(text):
+        return load_model_file(text)  # read through check_input_file: a device or FIFO named
     return get_model(text)

@@ -113,6 +113,12 @@ class Archive:
 
     def __init__(self, path: str | os.PathLike | None = None, *, create: bool = True):
         self.path = archive_path(path)
+        if self.path.exists() and not self.path.is_file():
+            from morphogen.util.io import file_kind
+
+            raise MorphogenError(
+                f"run archive {self.path} is {file_kind(self.path.stat().st_mode)}, not a file; "
+                "give the path of an SQLite index file (or of one to create) with --archive")
         if not self.path.exists():
             if not create:
                 raise MorphogenError(

@@ -310,10 +310,12 @@ def resolve_run(ref: str, archive_path: str | None = None) -> tuple[str, Archive
     import json
 
     config_file = Path(ref) / CONFIG
-    if config_file.is_file():
+    if config_file.exists():  # a FIFO or folder there is named by read_text
         try:
             config = json.loads(read_text(config_file, "run configuration"))
             run_id, path = str(config["id"]), archive_path or str(config["archive"])
+        except MorphogenError:
+            raise
         except (ValueError, KeyError, TypeError, RecursionError):
             raise MorphogenError(f"{config_file} is not a run configuration") from None
         archive = Archive(path, create=False)

@@ -93,7 +93,7 @@ def run_network(run_dir: str | Path) -> tuple[ReactionNetwork, float]:
 
     run_dir = Path(run_dir)
     path = run_dir / "state.npz"
-    if not path.is_file():
+    if not path.exists():  # anything else there is named by the reader (a FIFO, a folder)
         raise MorphogenError(f"no {path}: give a `morphogen networks` run folder or 'table2'")
     try:
         pop, history, _, meta = load_state(path)
