@@ -22,7 +22,8 @@ def test_gallery_neural_writes_each_rule_row_and_the_confusion_table(tmp_path) -
     data = json.loads((out / "confusion.json").read_text())
     assert data["table"]["rules"] == ["dots"] and len(data["table"]["targets"]) == 6
     assert len(data["table"]["losses"][0][0]) == 2  # two seeds
-    assert "| `neural:dots` |" in (out / "confusion.md").read_text()
+    assert (out / "confusion.md").read_text().count("| `neural:dots` |") == 2  # colour, shape
+    assert data["shape"]["rules"] == ["dots"] and "by shape nearest" in page
 
 
 @pytest.mark.parametrize("args, message", [

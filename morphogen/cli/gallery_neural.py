@@ -158,12 +158,14 @@ def run_neural_gallery(out: str | Path, cfg: NeuralGallery = NeuralGallery(), *,
         log(f"[{i}/{len(names)}] {sources[name]}")
         images[name] = rule_row(name, sources[name], out_dir, cfg, log)
     result = report(images, library_targets())
-    table = result["table"]
-    data = {"table": table.to_dict(), "dots": result.get("dots"), "rules": sources,
+    table, shape = result["table"], result["shape"]
+    data = {"table": table.to_dict(), "shape": shape.to_dict(), "dots": result.get("dots"),
+            "rules": sources,
             "size": cfg.size, "steps": cfg.steps, "seeds": cfg.seeds}
     text = json.dumps(data, indent=2) + "\n"
     write_atomic(out_dir / "confusion.json", lambda fh: fh.write(text.encode()))
-    md = result["markdown"] + "\n"
+    md = (result["markdown"] + "\n\nBy shape (luminance ranks, the palette removed):\n\n"
+          + result["shape_markdown"] + "\n")
     write_atomic(out_dir / "confusion.md", lambda fh: fh.write(md.encode()))
     items = []
     for name in names:
@@ -173,7 +175,8 @@ def run_neural_gallery(out: str | Path, cfg: NeuralGallery = NeuralGallery(), *,
         caption = (f"{sources[name]}: target, {cfg.seeds} seeds after {cfg.steps} steps on "
                    f"{cfg.size}², a corolla (fig. 5), a volume (fig. 6). Texture loss against "
                    f"its own target {own:.3g}; nearest target {table.nearest(name)}"
-                   + ("" if margin is None else f" (margin {margin:+.0%})"))
+                   + ("" if margin is None else f" (margin {margin:+.0%})")
+                   + f"; by shape nearest {shape.nearest(name)}")
         if name == "dots" and "dots" in result:
             d = result["dots"]
             caption += (f"; dot density {d['density_ratio']:.0%} of the target's, "
@@ -181,6 +184,6 @@ def run_neural_gallery(out: str | Path, cfg: NeuralGallery = NeuralGallery(), *,
         items.append((f"{name}/row.png", caption))
     return write_gallery(
         out_dir, "Neural RD: the shipped rules (Mordvintsev et al., figs. 2, 5, 6)", items,
-        intro=f"{len(names)} rules; the confusion table of the texture loss is in "
-        "confusion.md (rows: rules grown, columns: targets).",
+        intro=f"{len(names)} rules; the confusion tables of the texture loss, by colour and by "
+        "shape (palette removed), are in confusion.md (rows: rules grown, columns: targets).",
         wide=[rel for rel, _ in items])

@@ -39,6 +39,9 @@ from scipy import ndimage
 
 from morphogen.errors import MorphogenError
 
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+"""Rec. 709 luminance weights."""
+
 REFERENCE_SHIFT = (7, 11)
 """The reference rows judge each target moved by this many cells (periodically): the loss's
 image pyramid averages 2^l x 2^l blocks, so a texture aligned with them (the 64 x 64 checker,
@@ -106,10 +109,28 @@ class Confusion:
         return "\n".join(lines)
 
 
+def shape_only(rgb: np.ndarray) -> np.ndarray:
+    """An image reduced to its shape: luminance, rank-normalised to a uniform grey ramp over
+    ``[0, 1]`` (each pixel its quantile, ties sharing one), as three equal channels. Palette,
+    contrast and any monotone change of brightness are gone; where light and dark fall stays.
+    ``(..., H, W, 3)`` -> the same shape."""
+    from scipy.stats import rankdata
+
+    lum = np.asarray(rgb, np.float64) @ LUMA
+    flat = lum.reshape(*lum.shape[:-2], -1)
+    grey = (rankdata(flat, method="average", axis=-1) - 1.0) / max(flat.shape[-1] - 1, 1)
+    return np.repeat(grey.reshape(lum.shape)[..., None], 3, axis=-1).astype(np.float32)
+
+
 def confusion_table(images: Mapping[str, np.ndarray], targets: Mapping[str, np.ndarray],
-                    n_rot: int = 36) -> Confusion:
+                    n_rot: int = 36, shape: bool = False) -> Confusion:
     """The losses of ``images[rule]`` (``(seeds, H, W, 3)`` in ``[0, 1]``) against every target
-    (``(S, S, 3)``), with the random-feature texture loss of the library's training."""
+    (``(S, S, 3)``), with the random-feature texture loss of the library's training; with
+    ``shape``, of both reduced to their shape first (:func:`shape_only`), so that a texture is
+    judged by where its light and dark fall, not by its colours."""
+    if shape:
+        images = {k: shape_only(v) for k, v in images.items()}
+        targets = {k: shape_only(v) for k, v in targets.items()}
     import jax
     import jax.numpy as jnp
 
@@ -289,9 +310,12 @@ def library_targets(names: Sequence[str] | None = None) -> dict[str, np.ndarray]
 
 
 def report(images: Mapping[str, np.ndarray], targets: Mapping[str, np.ndarray]) -> dict:
-    """The confusion table and (when ``dots`` is among both) the dots' statistics."""
+    """The confusion table (by colour, as the training's loss sees it, and by shape alone:
+    :func:`shape_only`) and (when ``dots`` is among both) the dots' statistics."""
     table = confusion_table(images, targets)
-    out = {"table": table, "markdown": table.markdown()}
+    shape = confusion_table(images, targets, shape=True)
+    out = {"table": table, "markdown": table.markdown(), "shape": shape,
+           "shape_markdown": shape.markdown()}
     if "dots" in images and "dots" in targets:
         out["dots"] = dot_report(images["dots"], targets["dots"])
     return out
@@ -321,10 +345,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         np.savez_compressed(args.images, **images)
     result = report(images, library_targets())
     print(result["markdown"])
+    print("\nby shape (luminance ranks, palette removed):\n" + result["shape_markdown"])
     if "dots" in result:
         print(json.dumps(result["dots"], indent=2))
     if args.json:
-        data = {"table": result["table"].to_dict(), "dots": result.get("dots"),
+        data = {"table": result["table"].to_dict(), "shape": result["shape"].to_dict(),
+                "dots": result.get("dots"),
                 "steps": args.steps, "size": args.size, "seeds": args.seeds, "rules": rules}
         args.json.write_text(json.dumps(data, indent=2) + "\n")
     return 0
