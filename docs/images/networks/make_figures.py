@@ -144,9 +144,10 @@ def _png(name: str) -> Path:
 
 
 def fitness_figure(root: Path, number: int) -> None:
-    """Best fitness per generation, one curve per run (the seed's figs. 3 and 5), and beside it
-    the number of valid individuals per generation (fitness -1 marks an invalid one). Each run
-    has its own marker, drawn hollow, so runs with the same curve stay visible."""
+    """Best fitness per generation, one curve per run (the seed's figs. 3 and 5), the mean
+    fitness of the valid individuals dashed in the run's colour, and beside it the number of
+    valid individuals per generation (fitness -1 marks an invalid one). Each run has its own
+    marker, drawn hollow, so runs with the same curve stay visible."""
     fig = Figure(figsize=(8.4, 3.6), dpi=120)
     best, valid = fig.subplots(1, 2, width_ratios=(1.4, 1))
     markers = "os^DvP"
@@ -155,15 +156,17 @@ def fitness_figure(root: Path, number: int) -> None:
         gens = np.arange(1, len(history) + 1)
         style = dict(marker=markers[i % len(markers)], ms=7 - 1.5 * (i % 3), mfc="none",
                      markevery=(i, 3), lw=1, label=_label(folder))
-        best.plot(gens, history.max(axis=1), **style)
+        line = best.plot(gens, history.max(axis=1), **style)[0]
+        mean = [h[h >= 0].mean() if (h >= 0).any() else np.nan for h in history]
+        best.plot(gens, mean, ls="--", lw=0.8, color=line.get_color())
         valid.plot(gens, (history >= 0).sum(axis=1), **style)
     best.axhline(EVAL.size ** 2, color="0.6", ls=":", lw=1)
     best.set_xlabel("generation")
-    best.set_ylabel(f"best fitness (max {EVAL.size ** 2})")
+    best.set_ylabel(f"best fitness, mean of valid dashed (max {EVAL.size ** 2})", fontsize=9)
     what = "rates of the Table-2 network" if number == 1 else "networks, n = 3, m ≤ 12"
     best.set_title(f"Experiment {number}: {what}", fontsize=10)
     best.set_ylim(-20, EVAL.size ** 2 * 1.05)
-    best.legend(fontsize=7, ncol=3, loc="upper left")
+    best.legend(fontsize=7, ncol=3, loc="lower right")
     valid.set_xlabel("generation")
     valid.set_ylabel("count")
     valid.set_title(f"valid individuals of {BUDGET['population']}", fontsize=10)
