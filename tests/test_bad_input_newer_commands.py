@@ -371,3 +371,23 @@ def test_evolve_resume_names_a_run_configuration_that_is_a_fifo(tmp_path, capsys
     _refused(["evolve", "--resume", tmp_path / "run", "--archive", tmp_path / "a.sqlite"],
              capsys, "FIFO")
     assert _left(tmp_path, "run") == []
+
+
+def test_a_match_that_runs_out_of_time_is_told_about_pictures_not_grids():
+    """A web Match job or upload past its limit said to use a smaller grid; a match has none."""
+    import threading
+
+    import anyio
+
+    from morphogen.errors import MorphogenError
+    from morphogen.web.jobs import JobStore
+    from morphogen.web.limits import Limits, run_limited
+
+    gate = threading.Event()
+    with pytest.raises(MorphogenError, match="smaller picture"):
+        anyio.run(run_limited, gate.wait, 0.01, "reading the picture")
+    gate.set()
+    store = JobStore(Limits())
+    job = store.submit("match", lambda job, progress: progress(0.5), timeout_s=-1.0)
+    store._pool.shutdown(wait=True)
+    assert job.status == "error" and "smaller budget" in job.error, job.error

@@ -33,6 +33,11 @@ Progress = Callable[[float, str], None]
 Work = Callable[["Job", Progress], dict[str, Any]]
 
 
+ADVICE = {"match": "use a smaller budget, fewer minutes or a smaller picture"}
+"""What to change when a job of a kind runs past its limit (others: :data:`DEFAULT_ADVICE`)."""
+DEFAULT_ADVICE = "use fewer steps, tiles or individuals"
+
+
 class JobStopped(MorphogenError):
     """A job ran past its deadline or was cancelled."""
 
@@ -125,7 +130,7 @@ class JobStore:
             if time.monotonic() > deadline:
                 raise JobStopped(
                     f"the job took longer than {timeout_s:g} s and was "
-                    "stopped; use fewer steps, tiles or individuals"
+                    f"stopped; {ADVICE.get(job.kind, DEFAULT_ADVICE)}"
                 )
             job.progress = min(max(float(fraction), 0.0), 1.0)
             job.message = message

@@ -124,19 +124,21 @@ class WorkTimeout(MorphogenError):
     """A piece of work ran past its wall-clock limit."""
 
 
-async def run_limited(fn: Callable[[], T], timeout_s: float, what: str) -> T:
+async def run_limited(fn: Callable[[], T], timeout_s: float, what: str,
+                      advice: str | None = None) -> T:
     """Run the blocking ``fn`` in a worker thread; give up after ``timeout_s`` seconds.
 
-    On time-out the caller gets :class:`WorkTimeout` at once. The worker thread cannot be
-    killed, but every request is bounded (see :class:`Limits`), so it finishes soon after.
+    On time-out the caller gets :class:`WorkTimeout` at once, with ``advice`` (by default
+    about grids and steps, or about pictures when ``what`` reads one). The worker thread cannot
+    be killed, but every request is bounded (see :class:`Limits`), so it finishes soon after.
     """
     finished = False
     with anyio.move_on_after(timeout_s):
         result = await anyio.to_thread.run_sync(fn, abandon_on_cancel=True)
         finished = True
     if not finished:
-        raise WorkTimeout(
-            f"{what} took longer than {timeout_s:g} s and was stopped; "
-            "try a smaller grid, fewer steps per frame or fewer steps"
-        )
+        if advice is None:
+            advice = ("try a smaller picture (fewer pixels)" if "picture" in what
+                      else "try a smaller grid, fewer steps per frame or fewer steps")
+        raise WorkTimeout(f"{what} took longer than {timeout_s:g} s and was stopped; {advice}")
     return result
