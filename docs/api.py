@@ -150,6 +150,7 @@ def build(out: Path) -> list[str]:
         modules = {}
         for name in module_names(problems):
             try:
+                load_public_names(name)
                 modules[name] = pdoc.doc.Module.from_name(name)
             except RuntimeError as exc:  # pdoc's "Error importing NAME", from the ImportError
                 problems.append(f"{exc}: {exc.__cause__!r}")
@@ -174,6 +175,14 @@ def module_names(problems: list[str]) -> list[str]:
 
     found = pkgutil.walk_packages(package.__path__, PACKAGE + ".", onerror=failed)
     return [PACKAGE, *sorted(m.name for m in found)]
+
+
+def load_public_names(name: str) -> None:
+    """Import every name of a package's ``__all__``: the packages list their public names
+    lazily (``morphogen.util.exports``), and pdoc looks for them among what is already loaded."""
+    module = importlib.import_module(name)
+    for public in getattr(module, "__all__", ()):
+        getattr(module, public)
 
 
 def index_page(modules: dict[str, pdoc.doc.Module]) -> str:

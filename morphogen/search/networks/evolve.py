@@ -89,9 +89,10 @@ class Evaluation:
     """Phenotype and evaluation settings (Table 1 defaults).
 
     ``init`` picks the initial condition (module docstring). ``stage2`` reads §3.3's second
-    stage, "presence of any non-homogeneous pattern" (:data:`~.cluster.STAGE2`): ``"graded"``
-    (default) tests homogeneity on the activator and ranks a non-homogeneous state without a
-    peak by how close it is to one (:func:`~.cluster.pattern_grade`), ``"activator"`` only
+    stage, "presence of any non-homogeneous pattern"
+    (:data:`~morphogen.search.networks.cluster.STAGE2`): ``"graded"`` (default) tests
+    homogeneity on the activator and ranks a non-homogeneous state without a peak by how close
+    it is to one (:func:`~morphogen.search.networks.cluster.pattern_grade`), ``"activator"`` only
     tests the activator, ``"literal"`` every species (the seed's words; a non-diffusing
     species keeps its start noise, so every valid genome passed). ``reject_checkerboards``
     makes a grid-scale checkerboard (a numerical artefact of the step) invalid.
