@@ -74,6 +74,15 @@ def test_match_refuses_bad_options_and_leaves_no_journal(flags, words, tmp_path,
     assert _left(tmp_path, "p.png") == []
 
 
+@pytest.mark.parametrize("seed", ["-1", str(2**70)])
+def test_networks_refuses_a_seed_out_of_range(seed, tmp_path, capsys):
+    """2**70 gave a traceback from the archive after the run folder and archive were made."""
+    _refused(["networks", "--seed", seed, "--generations", "1", "--population", "4", "--size",
+              "8", "--archive", tmp_path / "runs" / "index.sqlite", "--out", tmp_path / "n"],
+             capsys, "--seed")
+    assert _left(tmp_path) == []
+
+
 @pytest.mark.parametrize("seed", [-1, 2**70])
 def test_match_from_python_refuses_a_seed_out_of_range(seed, tmp_path):
     from morphogen.errors import MorphogenError

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from morphogen.cli import networks_export_cmd
+from morphogen.cli import networks_export_cmd, options
 from morphogen.errors import MorphogenError
 from morphogen.search.executors import EXECUTORS, auto_executor, split_notice
 from morphogen.util.guard import WORKING_COPIES, check_count, check_numbers, check_steps
@@ -45,7 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--resume", action="store_true", help="continue the run saved in DIR")
     p.add_argument("--population", type=int, help="default: 150")
     p.add_argument("--generations", type=int, help="default: 100 (on --resume, the run's)")
-    p.add_argument("--seed", type=int, help="default: 0")
+    p.add_argument("--seed", type=options.seed, help="default: 0 (0 to 2**32 - 1)")
     p.add_argument("--size", type=int, help="grid side in cells (default: 32)")
     p.add_argument("--dt", type=float, help="default: 0.1")
     p.add_argument("--t-start", type=float, help="first evaluation time (default: 2000)")
