@@ -58,6 +58,31 @@ def _check_pixels(width: int, height: int, kind: str) -> None:
                              f"{MAX_IMAGE_PIXELS / 1e6:.3g} million accepted; reduce it first")
 
 
+def picture_bytes(text: object) -> tuple[bytes, tuple[int, int]]:
+    """Base64 PNG or JPEG text -> the file's bytes and its ``(width, height)``, read from its
+    header without decoding it (size and pixels checked as :func:`decode_picture` does): for a
+    consumer that decodes and reduces the picture itself (``match``), so the server never
+    holds the full-size float picture."""
+    import io
+
+    from PIL import Image
+
+    data = _file_bytes(text, "PNG or JPEG")
+    if not (data.startswith(b"\x89PNG") or data.startswith(b"\xff\xd8\xff")):
+        raise MorphogenError("the file is not a picture: send a PNG or JPEG image")
+    if data.startswith(b"\x89PNG"):
+        _check_pixels(*png_size(data), "picture")
+    try:
+        with Image.open(io.BytesIO(data)) as img:
+            size = img.size
+    except Image.DecompressionBombError:
+        raise MorphogenError("the picture is too large to decode safely; reduce it first") from None
+    except Exception:  # a malformed header must come back as one line
+        raise MorphogenError("the picture could not be read; is the file complete?") from None
+    _check_pixels(*size, "picture")
+    return data, size
+
+
 def decode_picture(text: object) -> np.ndarray:
     """Base64 PNG or JPEG text -> RGB ``(H, W, 3)`` float32 in ``[0, 1]`` (transparency over
     white). The file's size and the pixels its header announces are checked before it is

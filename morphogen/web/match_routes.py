@@ -118,17 +118,19 @@ async def describe():
 async def start(request: Request, body: JSONBody) -> dict[str, Any]:
     """Check the picture and options, then queue the match; returns ``{"job", "picture"}``."""
     from morphogen.match import load_picture
-    from morphogen.web.image_input import decode_picture
+    from morphogen.web.image_input import picture_bytes
 
     lim = request.app.state.limits
     opts = parse_options(body)
 
-    def check() -> np.ndarray:
-        rgb = decode_picture(body.get("image"))
-        load_picture(rgb, channel=opts["channel"])  # too small or blank: refused now
-        return rgb
+    def check() -> tuple[bytes, tuple[int, int]]:
+        # the upload's bytes, decoded and reduced by the match itself (memory follows its
+        # work size, not the picture's)
+        data, size = picture_bytes(body.get("image"))
+        load_picture(data, channel=opts["channel"])  # too small or blank: refused now
+        return data, size
 
-    rgb = await run_limited(check, lim.request_timeout_s, "reading the picture")
+    rgb, (width, height) = await run_limited(check, lim.request_timeout_s, "reading the picture")
 
     def work(job: Job, progress: Progress) -> dict[str, Any]:
         from morphogen.match import match
@@ -170,4 +172,4 @@ async def start(request: Request, body: JSONBody) -> dict[str, Any]:
         }
 
     job = request.app.state.jobs.submit("match", work)
-    return {"job": job.id, "picture": {"width": int(rgb.shape[1]), "height": int(rgb.shape[0])}}
+    return {"job": job.id, "picture": {"width": int(width), "height": int(height)}}
