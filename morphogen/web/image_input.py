@@ -1,6 +1,6 @@
 """An uploaded image on the grid: a PNG's grey levels as one species' starting state or as a
-parameter's spatial field; and an uploaded picture to match (:func:`decode_picture`, PNG or
-JPEG, in colour).
+parameter's spatial field; and an uploaded picture to match (:func:`picture_bytes`, PNG or
+JPEG, checked by its header and handed on undecoded).
 
 The image is stretched over the whole grid, row 0 at the top as in the picture, and each cell
 takes a grey level ``g`` in ``[0, 1]`` (the mean of R, G, B for a colour image), which becomes
@@ -60,9 +60,10 @@ def _check_pixels(width: int, height: int, kind: str) -> None:
 
 def picture_bytes(text: object) -> tuple[bytes, tuple[int, int]]:
     """Base64 PNG or JPEG text -> the file's bytes and its ``(width, height)``, read from its
-    header without decoding it (size and pixels checked as :func:`decode_picture` does): for a
-    consumer that decodes and reduces the picture itself (``match``), so the server never
-    holds the full-size float picture."""
+    header without decoding it: the file's size and the pixels its header announces are
+    checked, anything that is not a readable picture is one line. For a consumer that decodes
+    and reduces the picture itself (``match``), so the server never holds the full-size float
+    picture."""
     import io
 
     from PIL import Image
@@ -81,42 +82,6 @@ def picture_bytes(text: object) -> tuple[bytes, tuple[int, int]]:
         raise MorphogenError("the picture could not be read; is the file complete?") from None
     _check_pixels(*size, "picture")
     return data, size
-
-
-def decode_picture(text: object) -> np.ndarray:
-    """Base64 PNG or JPEG text -> RGB ``(H, W, 3)`` float32 in ``[0, 1]`` (transparency over
-    white). The file's size and the pixels its header announces are checked before it is
-    decoded; anything else that is not a readable picture is one line."""
-    import io
-    import warnings
-
-    from PIL import Image
-
-    data = _file_bytes(text, "PNG or JPEG")
-    if not (data.startswith(b"\x89PNG") or data.startswith(b"\xff\xd8\xff")):
-        raise MorphogenError("the file is not a picture: send a PNG or JPEG image")
-    if data.startswith(b"\x89PNG"):
-        _check_pixels(*png_size(data), "picture")
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", Image.DecompressionBombWarning)
-            with Image.open(io.BytesIO(data)) as img:
-                _check_pixels(*img.size, "picture")
-                img.load()
-                rgba = np.asarray(img.convert("RGBA"))  # 8-bit until the last step
-    except MorphogenError:
-        raise
-    except (Image.DecompressionBombError, Image.DecompressionBombWarning):
-        raise MorphogenError("the picture is too large to decode safely; reduce it first") from None
-    except Exception:  # a malformed file must come back as one line, whatever the decoder says
-        raise MorphogenError("the picture could not be read; is the file complete?") from None
-    rgb = rgba[..., :3].astype(np.float32)
-    if np.any(rgba[..., 3] < 255):  # composite on white, one channel at a time
-        alpha = rgba[..., 3].astype(np.float32) / 255.0
-        for c in range(3):
-            rgb[..., c] = rgb[..., c] * alpha + 255.0 * (1.0 - alpha)
-    rgb /= 255.0
-    return rgb
 
 
 def decode_png(text: object) -> np.ndarray:
