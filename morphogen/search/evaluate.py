@@ -37,7 +37,7 @@ from morphogen.engine.fields import resolve_params
 from morphogen.engine.simulate import integrate
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Model
-from morphogen.runs.policy import resolve_run
+from morphogen.runs.policy import RunPlan, resolve_run
 from morphogen.runs.settings import default
 from morphogen.search import fitness as fit
 from morphogen.search.genes import Gene, check_genes
@@ -161,10 +161,18 @@ def resolve_problem(problem: Problem, model: Model | None = None) -> Problem:
     as it is."""
     if problem.dt is not None and problem.steps is not None and problem.init is not None:
         return problem
+    return _planned(problem, model)[0]
+
+
+def _planned(problem: Problem, model: Model | None
+             ) -> tuple[Problem, RunPlan, Grid, dict[str, Any]]:
+    """The problem made concrete by one run of the policy, the plan (its scheme with ``auto``
+    resolved), and the problem's grid and base parameters."""
     model, domain, base = problem_base(problem, model)
     plan = resolve_run(model, domain, base, scheme=problem.scheme, dt=problem.dt,
                        steps=problem.steps, t_end=problem.time, population=True)
-    return replace(problem, dt=plan.dt, steps=plan.steps, init=problem.init or model.init)
+    concrete = replace(problem, dt=plan.dt, steps=plan.steps, init=problem.init or model.init)
+    return concrete, plan, domain, base
 
 
 def policy_problem(problem: Problem, *, dt: float | None = None, steps: int | None = None,
@@ -210,12 +218,12 @@ class Evaluator:
                  model: Model | None = None):
         self.batch_size = batch_size
         self.model = load_problem_model(problem) if model is None else model
-        self.problem = problem = resolve_problem(problem, self.model)
         check_genes(problem.genes, list(self.model.params))
-        _, self.domain, self.base = problem_base(problem, self.model)
-        # the run policy: auto resolved once for the population, dt checked against its limit
-        self.scheme = resolve_run(self.model, self.domain, self.base, scheme=problem.scheme,
-                                  dt=problem.dt, steps=problem.steps, population=True).scheme
+        # the run policy, once: auto resolved for the population, a given dt checked against
+        # its limit, dt, steps and init filled in where the problem left them out
+        self.problem, plan, self.domain, self.base = _planned(problem, self.model)
+        problem = self.problem
+        self.scheme = plan.scheme
         self.display = self.model.species_index(self.model.display_species)
         self._step = make_step(self.model, self.domain, scheme=self.scheme,
                                clamp=problem.clamp_bounds(self.model))
