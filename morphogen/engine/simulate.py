@@ -271,7 +271,8 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int | None, dt: f
     start = time.perf_counter()
     if dt is None and steps is not None and t_end is not None:
         dt, t_end = float(t_end) / steps, None
-    if dt is None or steps is None:
+    planned = dt is None or steps is None  # the policy checks the step against the limit
+    if planned:
         plan = plan_run(model, domain, {k: jnp.asarray(v) for k, v in params.items()},
                         scheme=scheme, dt=dt, steps=steps, t_end=t_end, unsafe=unsafe,
                         rtol=rtol, atol=atol, batched=batched, where="simulate")
@@ -306,7 +307,7 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int | None, dt: f
                          scheme=scheme, noise=noise, clamp=clamp, every=every,
                          max_snapshots=max_snapshots, progress=progress, unsafe=unsafe,
                          rtol=rtol, atol=atol, start=start, on_chunk=on_chunk)
-    if not unsafe:
+    if not unsafe and not planned:
         check_stability(model, domain, p, dt, scheme, batched=batched)
     step = _cached_step(model, domain, scheme, noise, tuple(clamp) if clamp else None)
     block = batch_block(u.shape[0]) if batched else 0
