@@ -271,8 +271,9 @@ def _drive(model, domain, u0, params, *, batched: bool, steps: int | None, dt: f
     start = time.perf_counter()
     if dt is None and steps is not None and t_end is not None:
         dt, t_end = float(t_end) / steps, None
-    planned = dt is None or steps is None  # the policy checks the step against the limit
-    if planned:
+    planned = False  # a step the policy chose is checked against the limit there
+    if dt is None or steps is None:
+        planned = True
         plan = plan_run(model, domain, {k: jnp.asarray(v) for k, v in params.items()},
                         scheme=scheme, dt=dt, steps=steps, t_end=t_end, unsafe=unsafe,
                         rtol=rtol, atol=atol, batched=batched, where="simulate")
