@@ -3,8 +3,8 @@ backend is present, written to ``bench/results/gpu.json``.
 
 Run it whenever a GPU is available (``.venv/bin/python -m bench.gpu_check``, at most
 :data:`BUDGET_S` seconds on one GPU); on a CPU it runs everything at tiny sizes (``--small``,
-automatic when the backend is ``cpu``), which is what ``tests/test_gpu_check.py`` does so that
-the script cannot rot. Sections, each timed after its compiling call:
+automatic when the backend is ``cpu``), which is what ``tests/project/test_gpu_check.py`` does
+so that the script cannot rot. Sections, each timed after its compiling call:
 
 - ``device``: backend, device name, the memory bandwidth from :data:`BANDWIDTH_GBS` (a table of
   known devices, vendors' figures) and a measured device-to-device copy (a jitted ``2 x`` of a
@@ -62,9 +62,10 @@ RESULT_SMALL = HERE / "results" / "gpu_small.json"
 """Where a small run writes unless told otherwise, so that it never replaces a GPU's figures."""
 BUDGET_S = 480.0
 ROUNDS = 3
-GPU_TESTS = ("tests/test_convergence.py", "tests/test_steppers.py", "tests/test_etd_batched.py",
-             "tests/test_spectral.py", "tests/test_mesh_stochastic.py",
-             "tests/test_networks_lanes.py")
+GPU_TESTS = ("tests/solvers/test_convergence.py", "tests/solvers/test_steppers.py",
+             "tests/solvers/test_etd_batched.py", "tests/domains/test_spectral.py",
+             "tests/domains/test_mesh_stochastic.py",
+             "tests/search/networks/test_networks_lanes.py")
 """Test files run on the device in full mode (module docstring)."""
 BYTES_PER_CELL_STEP = 16
 """Gray-Scott Euler: read ``u`` and ``v`` and write them, float32."""

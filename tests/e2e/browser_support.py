@@ -9,8 +9,9 @@ import os
 import subprocess
 from pathlib import Path
 
+from tests.paths import ROOT
+
 HERE = Path(__file__).parent
-ROOT = HERE.parent.parent
 OUT = Path(os.environ.get("MORPHOGEN_E2E_OUT", ROOT / "out" / "e2e"))
 # The speed figures of docs/web.md come from `MORPHOGEN_E2E_MEASURE=1 pytest tests/e2e -k explore`,
 # against a server that warms its models up as `morphogen serve` does, with an empty persistent

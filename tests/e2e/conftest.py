@@ -10,8 +10,9 @@ import sys
 import time
 
 import pytest
-from browser_support import HERE, MEASURE, OUT, ROOT, WARM_UP
-from web_support import TINY_PETAL
+
+from tests.e2e.browser_support import HERE, MEASURE, OUT, ROOT, WARM_UP
+from tests.web_support import TINY_PETAL
 
 # The Mesh page's case studies in the suite: the tiny petal pipeline and an endless one to
 # cancel; MORPHOGEN_E2E_EXAMPLES serves another examples folder.

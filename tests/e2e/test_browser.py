@@ -19,7 +19,8 @@ from pathlib import Path
 import imageio.v3 as iio
 import numpy as np
 import pytest
-from browser_support import HERE, MEASURE, OUT, scenario
+
+from tests.e2e.browser_support import HERE, MEASURE, OUT, scenario
 
 pytestmark = pytest.mark.slow
 LAMBDA = 0.9  # Skaggs eq. 3.9

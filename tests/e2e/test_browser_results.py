@@ -7,7 +7,8 @@ from __future__ import annotations
 import imageio.v3 as iio
 import numpy as np
 import pytest
-from browser_support import OUT, scenario
+
+from tests.e2e.browser_support import OUT, scenario
 
 pytestmark = pytest.mark.slow
 

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from browser_support import HERE, OUT, ROOT
+
+from tests.e2e.browser_support import HERE, OUT, ROOT
 
 USER_MODEL = """# a model pasted by a user: FitzHugh-Nagumo-like, with a cubic and a division
 name = "pasted-user-model"

@@ -1,7 +1,7 @@
 """Pages written by `morphogen export-web` for a model whose names are hostile, opened in
 headless Chromium: no injected handler runs and the page still works.
 
-The model (tests/test_export_web_escaping.py::HOSTILE_MODEL) passes the equation parser: its
+The model (tests/runs/test_export_web_escaping.py::HOSTILE_MODEL) passes the equation parser: its
 free-text ``name`` holds an ``<img onerror>``, ``</script><script>``, ``<!--``, U+2028/2029 and
 the template's placeholders ``@DATA@``, ``@STEP@``, ``@SCRIPT@``, ``@TITLE@``; its species and
 parameters are named ``img``, ``script``, ``constructor`` and ``onerror``; the colour map is a
@@ -19,8 +19,9 @@ import sys
 import urllib.request
 
 import pytest
-from browser_support import HERE, ROOT
-from test_export_web_escaping import HOSTILE_NAME, hostile_model_text
+
+from tests.e2e.browser_support import HERE, ROOT
+from tests.runs.test_export_web_escaping import HOSTILE_NAME, hostile_model_text
 
 pytestmark = pytest.mark.slow
 
