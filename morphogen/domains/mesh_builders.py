@@ -13,7 +13,7 @@ built from them by hand or handed to another tool.
 - :func:`sphere`: the icosahedron with every triangle split into four ``subdivisions`` times,
   new points pushed out to the sphere (an icosphere; ``10 · 4^s + 2`` vertices, edges about
   ``1.1 r / 2^s``). Its spherical harmonics are the test bed of the heat kernel
-  (``tests/test_mesh.py``).
+  (``tests/domains/test_mesh.py``).
 """
 
 from __future__ import annotations

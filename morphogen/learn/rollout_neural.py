@@ -19,7 +19,7 @@ The step is the same update as the generic one,
 
 with the periodic 5- or 9-point Laplacian ``L`` of :mod:`morphogen.domains.stencils` (same
 weights and summation order; unit grid spacing), so it agrees with the generic step to float
-rounding (tests/test_learn_rollout.py). Other stencils (spectral) run the generic step, moving
+rounding (tests/learn/test_learn_rollout.py). Other stencils (spectral) run the generic step, moving
 the channel axis around it.
 """
 

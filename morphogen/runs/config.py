@@ -44,7 +44,7 @@ def _from_dict(cls: type, data: dict[str, Any]) -> Any:
 class RunConfig:
     """Everything that determines a simulation and its pictures: one field per row of
     :data:`morphogen.runs.settings.SETTINGS`, in its order, with its type and default
-    (``tests/test_settings_table.py`` checks that they agree, and prints the lines to paste
+    (``tests/runs/test_settings_table.py`` checks that they agree, and prints the lines to paste
     when a row is added).
 
     ``steps`` or ``time`` may be ``None``: the model's suggested ``t_end`` and ``dt`` fill in

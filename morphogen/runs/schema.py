@@ -58,7 +58,7 @@ def _ordered(self: BaseModel) -> BaseModel:
 class RunSchema(BaseModel):
     """Every field of :class:`morphogen.runs.config.RunConfig`, one per row of
     :data:`morphogen.runs.settings.SETTINGS`: the row's ``schema`` text is the field's type, its
-    default the field's (``tests/test_settings_table.py`` checks that they agree)."""
+    default the field's (``tests/runs/test_settings_table.py`` checks that they agree)."""
 
     model_config = ConfigDict(extra="forbid", strict=True)
 

@@ -79,7 +79,7 @@ class Problem:
             every individual starts from the same one (up to its own ground state).
 
     The run settings' defaults and checks are the settings table's
-    (:data:`morphogen.runs.settings.SETTINGS`; ``tests/test_settings_table.py``), except
+    (:data:`morphogen.runs.settings.SETTINGS`; ``tests/runs/test_settings_table.py``), except
     ``size``.
         fitness: one of :data:`FITNESS_KINDS`; ``target`` the image for ``"target"``;
             ``flat_tol`` the relative spread below which a state counts as uniform.

@@ -21,7 +21,7 @@ polynomial of ``e^{z_N}`` (with no diffusion ETDRK4 is RK4); with ``z_L → -∞
 growing modes (a Turing band, a Hopf-unstable ground state) are the physics and are left out.
 :func:`marginal_dt` is the largest ``h`` with ``ρ(M(h')) <= 1`` for every decaying mode and
 every ``0 < h' <= h`` (a geometric scan of ``h``, refined by bisection); for a linear problem
-it is exact (``tests/test_etd_stability.py``: the marginal step runs, 1.5× it grows).
+it is exact (``tests/solvers/test_etd_stability.py``: the marginal step runs, 1.5× it grows).
 
 For a nonlinear model the Jacobian is taken at the ground state while the pattern moves away
 from it, and there the marginal step of the ground state is no safe guide: measured on the

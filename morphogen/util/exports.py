@@ -12,7 +12,7 @@ Every package of morphogen lists its public names the same way::
 so ``from morphogen.domains import Grid`` works, ``__all__`` is the list of public names (what
 the API reference and ``import *`` show), and importing the package (or any of its modules,
 which runs the package's ``__init__``) loads nothing heavy until a name is used: the printing
-commands start without JAX (``tests/test_startup.py``).
+commands start without JAX (``tests/project/test_startup.py``).
 """
 
 from __future__ import annotations

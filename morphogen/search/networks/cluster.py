@@ -20,7 +20,7 @@ seed's words alone would make every noise maximum of a nearly flat field above `
 peak, and such a field ("all alive") then outscores real spots; measured on 32² states at the
 last Table-1 round, the spots of the hand-made Table-2 network stand 6-11× above their disc's
 mean and those of the seed's Fig. 4 rates 12-18×, while uniform noise of ±10 % around 5 reaches
-1.10× (``tests/test_networks_cluster.py``). ``prominence = 0`` drops the test.
+1.10× (``tests/search/networks/test_networks_cluster.py``). ``prominence = 0`` drops the test.
 *Invalid* values are those the seed calls "outside bounds"; a mass-action network's
 concentrations cannot be negative (its exact solution keeps them ``>= 0``; a negative value is
 an integration that left the physical range, e.g. explicit Euler beyond its stability limit),
