@@ -31,6 +31,7 @@ deterministic pair could control; they are refused with a one-line error naming 
 
 from __future__ import annotations
 
+import importlib
 import math
 from functools import lru_cache
 from typing import Any
@@ -43,6 +44,7 @@ from morphogen.domains.base import Domain
 from morphogen.errors import MorphogenError
 from morphogen.models.model import Array, Model, Params
 from morphogen.solvers.base import make_rhs
+from morphogen.solvers.registry import ERROR_CONTROLLED, SCHEMES
 from morphogen.solvers.step import Noise
 
 DEFAULT_RTOL = 1e-3
@@ -88,18 +90,23 @@ def _controller(rtol: Any, atol: Any) -> diffrax.PIDController:
     return diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
 
 
-def _solver(model: Model, domain: Domain, scheme: str) -> diffrax.AbstractAdaptiveSolver:
-    """The embedded pair of an error-controlled scheme: Tsit5 for ``adaptive``, ETDRK4 with
-    its exponential midpoint estimate for ``etdrk4-adaptive``
-    (:mod:`morphogen.solvers.etd_adaptive`)."""
-    if scheme == "adaptive":
-        return diffrax.Tsit5()
-    if scheme == "etdrk4-adaptive":
-        from morphogen.solvers.etd_adaptive import EtdRk4Pair, make_pair
+def embedded_pair(model: Model, domain: Domain) -> diffrax.AbstractAdaptiveSolver:
+    """The ``adaptive`` scheme's embedded pair: Tsitouras' 5(4) (diffrax's ``Tsit5``), the same
+    for every model and domain."""
+    return diffrax.Tsit5()
 
-        return EtdRk4Pair(make_pair(model, domain))
-    raise MorphogenError(f"scheme {scheme} is not error-controlled; use adaptive or "
-                         "etdrk4-adaptive with --rtol/--atol")
+
+def _solver(model: Model, domain: Domain, scheme: str) -> diffrax.AbstractAdaptiveSolver:
+    """The embedded pair of an error-controlled scheme: the ``embedded_pair(model, domain)`` of
+    the module its registry row names (:data:`morphogen.solvers.registry.SCHEMES`), as a
+    fixed-step scheme is the :class:`~morphogen.solvers.base.Stepper` of its row's module."""
+    info = SCHEMES.get(scheme)
+    if info is None or not info.error_control:
+        raise MorphogenError(f"scheme {scheme} is not error-controlled; use one of "
+                             f"{', '.join(ERROR_CONTROLLED)} with --rtol/--atol")
+    pair: diffrax.AbstractAdaptiveSolver = importlib.import_module(info.module).embedded_pair(
+        model, domain)
+    return pair
 
 
 def solve(

@@ -146,3 +146,13 @@ class EtdRk4Pair(diffrax.AbstractAdaptiveSolver):
 
     def func(self, terms: Any, t0: Any, y0: Array, args: Any) -> Array:
         return terms.vf(t0, y0, args)
+
+
+def embedded_pair(model: Model, domain: Domain) -> EtdRk4Pair:
+    """The ``etdrk4-adaptive`` scheme's embedded pair for ``model`` on ``domain``, as
+    :func:`morphogen.solvers.adaptive.solve` and the run loop take it from the registry.
+
+    Raises:
+        MorphogenError: the domain or coefficients cannot carry an exact Fourier diffusion.
+    """
+    return EtdRk4Pair(make_pair(model, domain))

@@ -7,7 +7,9 @@ its order of accuracy, whether it is a fixed-step scheme (built by
 ``auto``: a choice between the others), whether diffusion is treated implicitly (so its step is
 limited by the reaction alone), whether a population can advance with it in lock-step, and
 whether the web app's live view offers it. The implementation of a scheme lives in the module
-named by ``module``; adding a scheme is that module plus one row here.
+named by ``module``: a fixed-step scheme's :class:`~morphogen.solvers.base.Stepper` subclass, an
+error-controlled scheme's ``embedded_pair(model, domain)`` (a diffrax adaptive solver,
+:func:`morphogen.solvers.adaptive.solve`); adding a scheme is that module plus one row here.
 
 The explicit schemes are the seeds' forward Euler (Skaggs §3.2, Ringham et al. eqs. 2-4) and
 classic RK4; ``imex1``/``imex`` are semi-implicit Euler and ARS(2,2,2) (Ascher, Ruuth and

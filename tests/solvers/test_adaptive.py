@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import diffrax
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -186,3 +187,32 @@ def test_run_file_records_adaptive_steps():
     assert sol.t == pytest.approx(0.2)
     replay = RunConfig.from_dict(record["config"])
     assert (replay.scheme, replay.rtol, replay.atol) == ("adaptive", 1e-3, 1e-6)
+
+
+def embedded_pair(model: Model, domain) -> diffrax.AbstractAdaptiveSolver:
+    """A third error-controlled scheme for the registry test: Bogacki-Shampine 3(2)."""
+    return diffrax.Bosh3()
+
+
+def test_an_error_controlled_scheme_is_a_registry_row_and_its_modules_pair(monkeypatch):
+    """A row with ``error_control`` whose module has ``embedded_pair`` is a scheme that
+    ``solve`` runs, with no name tested anywhere else; the pair is Bosh3 (its step counts
+    differ from Tsit5's on the same tolerance) and it meets the exact decay."""
+    from morphogen.solvers import registry
+
+    row = registry.SchemeInfo("bosh3", 3, "Bogacki-Shampine 3(2)", __name__, fixed_step=False,
+                              population=False, live=False, error_control=True)
+    monkeypatch.setitem(registry.SCHEMES, "bosh3", row)
+    f, lam = _mode()
+    ts = jnp.array([2.0])
+    exact = np.exp(2.0 * (-0.5 + 0.8 * lam)) * f
+    counts = {}
+    for scheme in ("bosh3", "adaptive"):
+        ys, stats = solve(LINEAR, GRID, f[None], dict(LINEAR.params), ts, rtol=1e-5,
+                          atol=1e-7, dt0=0.05, max_steps=BUDGET, scheme=scheme)
+        assert bool(stats["ok"])
+        assert float(np.abs(np.asarray(ys[0, 0]) - exact).max()) < 1e-4
+        counts[scheme] = int(stats["accepted"])
+    assert counts["bosh3"] > counts["adaptive"]
+    with pytest.raises(MorphogenError, match="not error-controlled; use one of adaptive"):
+        solve(LINEAR, GRID, f[None], dict(LINEAR.params), ts, scheme="euler")
