@@ -18,7 +18,7 @@ from morphogen.util.progress import ProgressBar
 
 DEFAULTS = {"mode": "rates", "population": 150, "generations": 100, "seed": 0, "size": 32,
             "dt": 0.1, "t_start": 2000.0, "interval": 200.0, "rounds": 10, "m_max": 12,
-            "tournament": 2, "init": "fixed", "init_noise": 0.1, "stage2": "graded",
+            "tournament": 2, "init": "fixed", "init_noise": 0.1, "stage2": "stationary",
             "checkerboards": "invalid", "draw": "decade"}
 """Settings of a new run (Table 1); ``--resume`` takes the run's own instead."""
 
@@ -59,11 +59,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "point); default: fixed")
     p.add_argument("--init-noise", type=float,
                    help="relative noise of --init fixed and steady (default: 0.1, i.e. ±10 %%)")
-    p.add_argument("--stage2", choices=("graded", "activator", "literal"),
+    p.add_argument("--stage2", choices=("stationary", "graded", "activator", "literal"),
                    help="stage two of the fitness, 'presence of any non-homogeneous pattern': "
-                   "'graded' (default) tests the activator and ranks a state without a peak by "
-                   "how close it is to one, 'activator' only tests the activator, 'literal' "
-                   "every species (the seed's words)")
+                   "'stationary' (default) tests the activator and ranks a state without a peak "
+                   "by how close it is to one and how settled it is since the previous round, "
+                   "'graded' by the first alone, 'activator' only tests the activator, "
+                   "'literal' every species (the seed's words)")
     p.add_argument("--checkerboards", choices=("invalid", "scored"),
                    help="grid-scale checkerboards (a numerical artefact of the step): "
                    "'invalid' (default) or 'scored' as patterns (the seed's words)")

@@ -61,11 +61,15 @@ A_PEAK = 3.0
 PROMINENCE = 0.5
 D_MAX = 6.0
 PHI_DEAD, PHI_PEAK_CROWDED, PHI_PEAK_ALONE, PHI_ALIVE = 0.25, 0.5, 0.75, 1.0
-STAGE2 = ("graded", "activator", "literal")
+STAGE2 = ("stationary", "graded", "activator", "literal")
 """Readings of stage two, "presence of any non-homogeneous pattern"
 (:func:`cluster_head_fitness`)."""
 GRADE_FLOOR = 1e-3
 """Smallest :func:`pattern_grade`, so a non-homogeneous state always ranks above a flat one."""
+DRIFT_TOL = 0.1
+"""Drift per scoring round (:func:`stationarity`) at which a graded state's grade reaches its
+floor: a state whose largest change over a round is a tenth of its species' range is no pattern
+yet (docs/networks.md, *A grade that asks for a settled state*)."""
 
 
 def _offsets(radius: float, *, strict: bool, centre: bool) -> list[tuple[int, int]]:
@@ -171,12 +175,30 @@ def pattern_grade(a: Array, *, a_peak: float = A_PEAK, prominence: float = PROMI
     return jnp.maximum(g, floor)
 
 
+def stationarity(u: Array, previous: Array, rate: Array = 1.0, *,
+                 tol: float = DRIFT_TOL) -> Array:
+    """How settled a state ``u`` ``(S, H, W)`` is against the state ``previous`` one interval
+    earlier, in ``[0, 1]``:
+
+    .. math:: s = \\max\\Big(0,\\; 1 - \\frac{r}{tol}\\,\\max_i
+              \\frac{\\max_x |u_i - u_i^{prev}|}{\\max(\\max_x |u_i|, 10^{-6})}\\Big),
+
+    the largest change of any species over the interval against that species' own range,
+    ``rate`` ``r`` scaling the interval to one scoring round. A stationary pattern gives 1; the
+    slow runaway of a non-diffusing species (15-25 % per round, measured) gives 0."""
+    drift = jnp.max(jnp.abs(u - previous), axis=(1, 2))
+    top = jnp.maximum(jnp.max(jnp.abs(u), axis=(1, 2)), 1e-6)
+    return jnp.clip(1.0 - rate * jnp.max(drift / top) / tol, 0.0, 1.0)
+
+
 def cluster_head_fitness(*, species: int = 0, a_peak: float = A_PEAK, d_max: float = D_MAX,
                          s_max: float = S_MAX, prominence: float = PROMINENCE,
                          nonnegative: bool = False, normalise: bool = False,
                          flat_tol: float = 1e-3, stage2: str = "literal",
-                         checkerboards_invalid: bool = False) -> Callable[[Array], Array]:
-    """Staged cluster-head fitness of a population ``(P, S, H, W) -> (P,)`` (Yamamoto §3.3).
+                         checkerboards_invalid: bool = False) -> Callable[..., Array]:
+    """Staged cluster-head fitness of a population ``(P, S, H, W) -> (P,)`` (Yamamoto §3.3),
+    called as ``score(states)`` or ``score(states, previous, rate)`` with the states one
+    interval earlier (``stage2="stationary"``; without them every state counts as settled).
 
     Stage one: a state is invalid (:data:`~morphogen.search.fitness.INVALID`) when any value is
     non-finite, beyond ``s_max`` or (``nonnegative``, the setting of the network evaluation)
@@ -191,7 +213,10 @@ def cluster_head_fitness(*, species: int = 0, a_peak: float = A_PEAK, d_max: flo
     - ``"graded"``: as ``"activator"``, and a state without a peak (``Σ Φ = N/4``, every cell
       dead) scores ``N/4 · g`` with ``g`` its :func:`pattern_grade`, so invalid < homogeneous
       < graded non-homogeneous (``<= N/4``) < any state with a peak (``> N/4``: a peak cell
-      scores at least 0.5).
+      scores at least 0.5);
+    - ``"stationary"``: as ``"graded"``, the grade times the state's :func:`stationarity`
+      against ``previous`` (floor :data:`GRADE_FLOOR`), so a state still drifting away
+      (a runaway) is not ranked as a pattern about to form.
 
     ``normalise`` divides the score by the number of cells ``N``, giving a score in ``(0, 1]``
     like the other fitnesses of :mod:`morphogen.search.fitness` (used when it serves an
@@ -201,17 +226,20 @@ def cluster_head_fitness(*, species: int = 0, a_peak: float = A_PEAK, d_max: flo
     if stage2 not in STAGE2:
         raise MorphogenError(f"unknown stage-2 test {stage2!r}; use one of {', '.join(STAGE2)}")
 
-    def one(u: Array) -> Array:
+    def one(pair: tuple[Array, Array, Array]) -> Array:
+        u, previous, rate = pair
         ok = jnp.all(valid_cells(u, s_max, nonnegative))
         safe = jnp.where(ok, u, 0.0)
         cells = u.shape[1] * u.shape[2]
         total = cluster_head_score(safe, species=species, a_peak=a_peak, d_max=d_max,
                                    s_max=s_max, prominence=prominence, nonnegative=nonnegative)
         a = safe[species]
-        if stage2 == "graded":
-            total = jnp.where(total > PHI_DEAD * cells, total,
-                              PHI_DEAD * cells * pattern_grade(a, a_peak=a_peak,
-                                                               prominence=prominence))
+        if stage2 in ("graded", "stationary"):
+            g = pattern_grade(a, a_peak=a_peak, prominence=prominence)
+            if stage2 == "stationary":
+                settled = stationarity(safe, jnp.where(ok, previous, 0.0), rate)
+                g = jnp.maximum(g * settled, GRADE_FLOOR)
+            total = jnp.where(total > PHI_DEAD * cells, total, PHI_DEAD * cells * g)
         flat = is_flat(safe if stage2 == "literal" else a[None], flat_tol)
         value = jnp.where(flat, FLAT, total / cells if normalise else total)
         if checkerboards_invalid:
@@ -220,4 +248,12 @@ def cluster_head_fitness(*, species: int = 0, a_peak: float = A_PEAK, d_max: flo
             ok = ok & ~jnp.any(grid_scale_dominated(g[0], dev[0], scale))
         return jnp.where(ok, value, INVALID)
 
-    return jax.jit(lambda states: jax.lax.map(one, states))
+    mapped = jax.jit(lambda states, previous, rate: jax.lax.map(
+        one, (states, previous, jnp.broadcast_to(rate, states.shape[:1]))))
+
+    def score(states: Array, previous: Array | None = None, rate: float = 1.0) -> Array:
+        states = jnp.asarray(states)
+        return mapped(states, states if previous is None else jnp.asarray(previous, states.dtype),
+                      jnp.float32(rate))
+
+    return score

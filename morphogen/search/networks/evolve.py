@@ -90,9 +90,12 @@ class Evaluation:
 
     ``init`` picks the initial condition (module docstring). ``stage2`` reads §3.3's second
     stage, "presence of any non-homogeneous pattern"
-    (:data:`~morphogen.search.networks.cluster.STAGE2`): ``"graded"`` (default) tests
+    (:data:`~morphogen.search.networks.cluster.STAGE2`): ``"stationary"`` (default) tests
     homogeneity on the activator and ranks a non-homogeneous state without a peak by how close
-    it is to one (:func:`~morphogen.search.networks.cluster.pattern_grade`), ``"activator"`` only
+    it is to one (:func:`~morphogen.search.networks.cluster.pattern_grade`) and how settled it is
+    since the previous round or check
+    (:func:`~morphogen.search.networks.cluster.stationarity`), ``"graded"`` by the first
+    alone, ``"activator"`` only
     tests the activator, ``"literal"`` every species (the seed's words; a non-diffusing
     species keeps its start noise, so every valid genome passed). ``reject_checkerboards``
     makes a grid-scale checkerboard (a numerical artefact of the step) invalid.
@@ -108,7 +111,7 @@ class Evaluation:
     init: str = "fixed"
     init_noise: float = 0.1
     init_relax: float = 5000.0
-    stage2: str = "graded"
+    stage2: str = "stationary"
     reject_checkerboards: bool = True
 
     def __post_init__(self) -> None:
@@ -258,11 +261,12 @@ def evaluate(pop: Genome, u0: Array, spec: NetworkSpec, ev: Evaluation,
     score = network_fitness(ev)
     for steps, scored in _plan(ev, checks):
         alive = np.flatnonzero(np.asarray(ok))
+        before = u
         if steps and alive.size:
             u = _integrate_alive(u, params, alive, spec, ev, steps)
         within = within_bounds(u)
         if scored:
-            f = score(u)
+            f = score(u, before, ev.round_steps / max(steps, 1))
             ok = ok & (f != INVALID) & within
             total = total + jnp.where(ok, f, 0.0)
         else:

@@ -35,9 +35,11 @@ def test_evaluation_matches_fixed_structure_model():
     p = {k: jnp.asarray(v, jnp.float32) for k, v in model.parameters().items()}
     score = network_fitness(EV)
     u, total = u0, 0.0
-    for steps in (40, 20):
-        u, _, _ = integrate(step, u, p, steps=steps, dt=0.5, key=jax.random.key(0))
-        total += float(score(u[None])[0])
+    for scored in (False, True, True):  # a check at t = 10, rounds at t = 20 and 30
+        before = u
+        u, _, _ = integrate(step, u, p, steps=20, dt=0.5, key=jax.random.key(0))
+        if scored:  # each round graded by its drift since the check or round before it
+            total += float(score(u[None], before[None])[0])
     np.testing.assert_allclose(states[0], np.asarray(u), rtol=1e-4, atol=1e-6)
     np.testing.assert_allclose(fitness[0], total / 2, rtol=1e-6)
     assert fitness[1] == -1.0  # 990 * a^2 c autocatalysis blows up: invalid, zeroed state

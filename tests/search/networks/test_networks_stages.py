@@ -1,16 +1,31 @@
 """The network evaluation's stages (Yamamoto §3.3) on hand-built states: grid-scale
 checkerboards are invalid, stage two reads the activator, and a non-homogeneous state without
-a peak is graded below every state with one."""
+a peak is graded below every state with one, less the more it still drifts."""
 
+from dataclasses import replace
+
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from morphogen.errors import MorphogenError
-from morphogen.search.networks.cluster import cluster_head_fitness, pattern_grade
-from morphogen.search.networks.evolve import LEGACY_EV, Evaluation, network_fitness
+from morphogen.search.networks.cluster import (
+    GRADE_FLOOR,
+    cluster_head_fitness,
+    pattern_grade,
+    stationarity,
+)
+from morphogen.search.networks.evolve import (
+    LEGACY_EV,
+    Evaluation,
+    evaluate,
+    initial_state,
+    network_fitness,
+)
+from morphogen.search.networks.genome import stack, table2_genome, table2_spec
 
-NETWORK = network_fitness(Evaluation())  # graded, checkerboards invalid
+NETWORK = network_fitness(Evaluation())  # stationary grade, checkerboards invalid
 LITERAL = cluster_head_fitness(nonnegative=True)  # the earlier network fitness
 
 
@@ -89,7 +104,7 @@ def test_graded_stage_two_orders_the_states():
 
 
 def test_stage_two_options_and_legacy_runs():
-    assert Evaluation().stage2 == "graded" and Evaluation().reject_checkerboards
+    assert Evaluation().stage2 == "stationary" and Evaluation().reject_checkerboards
     assert LEGACY_EV["stage2"] == "literal" and LEGACY_EV["reject_checkerboards"] is False
     literal = network_fitness(Evaluation(stage2="literal", reject_checkerboards=False))
     u = _state(_checkerboard(3))
@@ -126,3 +141,49 @@ def test_cli_stage_two_and_draw_options_are_saved_and_resumed(tmp_path):
     saved = record.saved_settings(out)
     assert (saved["stage2"], saved["checkerboards"], saved["draw"]) == ("literal", "scored",
                                                                         "log-uniform")
+
+
+def test_the_stationary_grade_scales_by_the_drift_since_the_previous_round():
+    y, x = np.mgrid[:32, :32]
+    bump = 1.0 + 1.9 * np.exp(-((x - 16.0) ** 2 + (y - 16.0) ** 2) / 8.0)
+    u = _state(bump)
+    top = float(bump.max())
+    graded = cluster_head_fitness(nonnegative=True, stage2="graded")
+    g = float(graded(u)[0]) / 256.0
+    assert 0.1 < g < 1.0
+    assert float(NETWORK(u)[0]) == pytest.approx(256.0 * g, rel=1e-6)  # no previous: settled
+    assert float(NETWORK(u, u)[0]) == pytest.approx(256.0 * g, rel=1e-6)
+    # A 5 % of its range lower one round before: drift 0.05 against the tolerance 0.1 -> half
+    before = np.asarray(u).copy()
+    before[0, 0] -= 0.05 * top
+    assert float(stationarity(u[0], jnp.asarray(before[0]))) == pytest.approx(0.5, rel=1e-4)
+    assert float(NETWORK(u, before)[0]) == pytest.approx(128.0 * g, rel=1e-4)
+    # the same drift over half a round is twice as fast: no grade left but the floor
+    assert float(NETWORK(u, before, 2.0)[0]) == pytest.approx(256.0 * GRADE_FLOOR, rel=1e-4)
+    # the non-diffusing C running away (20 % of its range) while A stands still: the floor
+    runaway = np.asarray(u).copy()
+    runaway[0, 2] *= 0.8
+    assert float(NETWORK(u, runaway)[0]) == pytest.approx(256.0 * GRADE_FLOOR, rel=1e-4)
+    assert float(graded(u, runaway)[0]) == pytest.approx(256.0 * g, rel=1e-6)
+    # a state with a peak, and a flat one, score the same however they drift
+    spot = _state(np.where(np.exp(-((x - 16.0) ** 2 + (y - 16.0) ** 2) / 8.0) > 0.99, 12.0, 1.0))
+    assert float(NETWORK(spot, 0.5 * spot)[0]) == float(graded(spot)[0]) > 256.0
+    flat = _state(np.full((32, 32), 2.0))
+    assert float(NETWORK(flat, 0.5 * flat)[0]) == 0.0
+
+
+def test_the_evaluation_hands_each_round_the_state_before_it():
+    # Table 2 from the shared uniform field, scored early (t = 5, 10) while still moving: a
+    # graded individual scores less under the stationary reading, the others the same
+    spec = table2_spec()
+    g = table2_genome(spec)
+    pop = stack([g._replace(mantissa=g.mantissa.at[j].set(m))
+                 for j, m in ((3, 10), (3, 30), (6, 50), (7, 20), (8, 99), (0, 0))])
+    ev = Evaluation(size=8, dt=0.5, t_start=5.0, interval=5.0, rounds=2, init="uniform")
+    u0 = initial_state(jax.random.key(4), spec, ev)
+    drifting, _ = evaluate(pop, u0, spec, ev)
+    settled, _ = evaluate(pop, u0, spec, replace(ev, stage2="graded"))
+    graded = (settled > 0) & (settled <= 16.0)  # 8² cells: N/4 = 16
+    assert graded.any()
+    assert np.all(drifting[graded] < settled[graded])
+    np.testing.assert_array_equal(drifting[~graded], settled[~graded])
