@@ -71,6 +71,23 @@ def test_the_embedded_estimate_has_the_order_the_controller_is_told():
     assert all(t < e for t, e in zip(true, est, strict=True))
 
 
+def test_the_estimate_is_the_error_that_survives_the_steps_own_damping():
+    """On one Fourier mode the damped estimate is the plain ``u_4 - u_2`` times that mode's
+    factor over the step, ``exp(h D_s λ(k))`` per species; the step itself is unchanged."""
+    u0, lam = _mode()
+    h = 0.3
+    with jax.enable_x64(True):
+        p = {k: jnp.float64(v) for k, v in ROTATION.params.items()}
+        args = (jnp.asarray(u0), p, jnp.float64(0.0), jnp.float64(h))
+        u4, damped = make_pair(ROTATION, GRID)(*args)
+        u4_plain, plain = make_pair(ROTATION, GRID, damped=False)(*args)
+    np.testing.assert_array_equal(np.asarray(u4), np.asarray(u4_plain))
+    factor = np.exp(h * np.array([ROTATION.params["Du"], ROTATION.params["Dv"]]) * lam)
+    np.testing.assert_allclose(np.asarray(damped), factor[:, None, None] * np.asarray(plain),
+                               rtol=1e-9, atol=1e-15)
+    assert np.abs(np.asarray(plain)).max() > 1e-4  # a real estimate to compare
+
+
 def test_a_requested_tolerance_is_met_on_a_known_solution():
     """Against ``expm``: the error at ``t = 4`` is below ``rtol`` (relative to the largest
     value), tightening ``rtol`` shrinks it and takes more steps."""
