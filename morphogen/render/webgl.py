@@ -3,7 +3,8 @@
 The shader is not a second, hand-written copy of the model: the model's own ``reaction`` and
 ``diffusion`` (a library model's functions, or a model file's expressions compiled by
 :mod:`morphogen.models.expr`) are traced by JAX into the very list of primitive operations
-(a jaxpr) that the engine compiles, and each operation becomes one line of GLSL. The step is
+(a jaxpr) that the engine compiles, and each operation becomes one line of GLSL
+(:mod:`morphogen.models.cell_code`, in the :data:`GLSL` dialect). The step is
 the engine's forward Euler, ``u + dt * (R(u) + D * lap(u))`` (:mod:`morphogen.solvers.explicit`),
 with the 5- or 9-point stencil of :mod:`morphogen.domains.stencils` term for term and the ghost
 cells of :mod:`morphogen.domains.grid` (wrap for periodic, the edge value for no flux).
@@ -15,14 +16,15 @@ diffusion, an operation GLSL lacks) is a :class:`~morphogen.errors.MorphogenErro
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from morphogen.errors import MorphogenError
-from morphogen.models.model import Model, Tensor
+from morphogen.models.cell_code import Dialect, Emitter, cell_jaxpr
+from morphogen.models.model import Model
 
 MAX_SPECIES = 4
 """Species held in one RGBA float texture."""
@@ -39,10 +41,10 @@ _UNARY = {"neg": "(-{})", "exp": "exp({})", "log": "log({})", "sqrt": "sqrt({})"
           "log1p": "log(1.0 + {})", "expm1": "(exp({}) - 1.0)", "square": "({0} * {0})",
           "not": "(!{})", "asin": "asin({})", "acos": "acos({})", "atan": "atan({})",
           "sinh": "sinh({})", "cosh": "cosh({})", "round": "floor({} + 0.5)"}
-_TRANSPARENT = {"copy", "copy_p", "stop_gradient", "optimization_barrier", "reduce_precision"}
-_CALLS = {"pjit": "jaxpr", "closed_call": "call_jaxpr", "custom_jvp_call": "call_jaxpr",
-          "custom_vjp_call": "call_jaxpr", "custom_vjp_call_jaxpr": "fun_jaxpr",
-          "remat": "jaxpr", "checkpoint": "jaxpr"}
+
+
+def _declare(kind: str, name: str, expr: str) -> str:
+    return f"  {kind} {name} = {expr};"
 
 
 @dataclass(frozen=True)
@@ -63,119 +65,6 @@ def glsl_float(value: float) -> str:
     return text if ("." in text or "e" in text) else text + ".0"
 
 
-class _Emitter:
-    """Turns jaxpr equations into GLSL lines; every value is a numpy object array of GLSL
-    expressions with the value's shape (a field of the grid is one cell: shape ``(1,)``)."""
-
-    def __init__(self, model_name: str):
-        self.lines: list[str] = []
-        self.count = 0
-        self.model = model_name
-
-    def temp(self, expr: str, kind: str) -> str:
-        self.count += 1
-        name = f"t{self.count}"
-        self.lines.append(f"  {kind} {name} = {expr};")
-        return name
-
-    def run(self, jaxpr: Any, consts: Sequence[Any], args: Sequence[np.ndarray]) -> list:
-        env: dict[Any, np.ndarray] = {}
-        for var, c in zip(jaxpr.constvars, consts, strict=True):
-            env[var] = self.constant(c)
-        for var, a in zip(jaxpr.invars, args, strict=True):
-            env[var] = a
-        for eqn in jaxpr.eqns:
-            ins = [self.read(env, v) for v in eqn.invars]
-            outs = self.equation(eqn, ins)
-            for var, val in zip(eqn.outvars, outs, strict=True):
-                env[var] = val
-        return [self.read(env, v) for v in jaxpr.outvars]
-
-    def read(self, env: Mapping[Any, np.ndarray], var: Any) -> np.ndarray:
-        if hasattr(var, "val"):  # a literal
-            return self.constant(var.val)
-        return env[var]
-
-    def constant(self, value: Any) -> np.ndarray:
-        arr = np.asarray(value)
-        if arr.dtype == bool:
-            return np.vectorize(lambda b: "true" if b else "false", otypes=[object])(arr) \
-                if arr.ndim else np.array("true" if arr else "false", dtype=object)
-        flat = [glsl_float(v) for v in arr.ravel()]
-        return np.array(flat, dtype=object).reshape(arr.shape)
-
-    def elementwise(self, template: str, ins: Sequence[np.ndarray], kind: str) -> np.ndarray:
-        shape = np.broadcast_shapes(*(a.shape for a in ins))
-        ins = [np.broadcast_to(a, shape) for a in ins]
-        out = np.empty(shape, dtype=object)
-        for idx in np.ndindex(shape):
-            out[idx] = self.temp(template.format(*(a[idx] for a in ins)), kind)
-        return out
-
-    def equation(self, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]:
-        name = eqn.primitive.name
-        p = eqn.params
-        boolean = str(eqn.outvars[0].aval.dtype) == "bool"
-        kind = "bool" if boolean else "float"
-        if name in _BINARY:
-            return [self.elementwise(_BINARY[name], ins, kind)]
-        if name in _UNARY:
-            return [self.elementwise(_UNARY[name], ins, kind)]
-        if name == "integer_pow":
-            return [self.elementwise(_integer_pow(int(p["y"])), ins, kind)]
-        if name in _TRANSPARENT:
-            return ins
-        if name == "convert_element_type":
-            src = str(eqn.invars[0].aval.dtype)
-            if src == "bool" and not boolean:
-                return [self.elementwise("({} ? 1.0 : 0.0)", ins, kind)]
-            if boolean and src != "bool":
-                return [self.elementwise("({} != 0.0)", ins, kind)]
-            return ins
-        if name == "select_n":
-            pred, *cases = ins
-            if len(cases) != 2:
-                raise self.unsupported("select_n with more than two cases")
-            if str(eqn.invars[0].aval.dtype) != "bool":
-                pred = self.elementwise("({} != 0.0)", [pred], "bool")
-            return [self.elementwise("({} ? {} : {})", [pred, cases[1], cases[0]], kind)]
-        if name == "clamp":
-            lo, x, hi = ins
-            return [self.elementwise("clamp({1}, {0}, {2})", [lo, x, hi], kind)]
-        if name == "slice":
-            index = tuple(slice(a, b, s) for a, b, s in zip(
-                p["start_indices"], p["limit_indices"], p["strides"] or [1] * len(ins[0].shape),
-                strict=True))
-            return [ins[0][index]]
-        if name == "squeeze":
-            return [np.squeeze(ins[0], axis=tuple(p["dimensions"]))]
-        if name == "reshape":
-            return [ins[0].reshape(p["new_sizes"])]
-        if name == "expand_dims":
-            return [np.expand_dims(ins[0], p["dimensions"])]
-        if name == "broadcast_in_dim":
-            shape, dims = p["shape"], p["broadcast_dimensions"]
-            view = [1] * len(shape)
-            for src, dst in enumerate(dims):
-                view[dst] = ins[0].shape[src]
-            return [np.broadcast_to(ins[0].reshape(view), shape)]
-        if name == "concatenate":
-            return [np.concatenate(ins, axis=p["dimension"])]
-        if name == "stack":
-            return [np.stack(ins, axis=p.get("axis", 0))]
-        if name in _CALLS or "jaxpr" in p or "call_jaxpr" in p:
-            sub = p.get(_CALLS.get(name, ""), p.get("jaxpr", p.get("call_jaxpr")))
-            inner = getattr(sub, "jaxpr", sub)
-            consts = getattr(sub, "consts", getattr(sub, "literals", []))
-            n = len(inner.invars)
-            return self.run(inner, consts, ins[len(ins) - n:])
-        raise self.unsupported(name)
-
-    def unsupported(self, what: str) -> MorphogenError:
-        return MorphogenError(f"export-web: model {self.model} uses the operation {what!r}, "
-                              "which the exported page does not support")
-
-
 def _integer_pow(n: int) -> str:
     """``x**n`` as repeated multiplication (what XLA does for a small integer power)."""
     if n == 0:
@@ -184,12 +73,16 @@ def _integer_pow(n: int) -> str:
     return f"({body})" if n > 0 else f"(1.0 / ({body}))"
 
 
+GLSL = Dialect(
+    binary=_BINARY, unary=_UNARY, integer_pow=_integer_pow, literal=glsl_float, true="true",
+    false="false", declare=_declare, select="({} ? {} : {})", clamp="clamp({1}, {0}, {2})",
+    to_float="({} ? 1.0 : 0.0)", to_bool="({} != 0.0)")
+"""How GLSL ES 3.00 writes each operation."""
+
+
 def step_shader(model: Model, params: Mapping[str, Any], *, boundary: str, stencil: int,
                 dx: float) -> StepShader:
     """The fragment shader of one forward-Euler step of ``model`` on a 2D grid."""
-    import jax
-    import jax.numpy as jnp
-
     species = model.species
     if len(species) > MAX_SPECIES:
         raise MorphogenError(f"export-web: model {model.name} has {len(species)} species; the "
@@ -205,26 +98,9 @@ def step_shader(model: Model, params: Mapping[str, Any], *, boundary: str, stenc
     if stencil not in (5, 9):
         raise MorphogenError(f"export-web: stencil {stencil!r} is not supported; use 5 or 9")
 
-    def traced(u, pv, cv):
-        p = dict(zip(names, pv, strict=True))
-        c = {"x": cv[0], "y": cv[1], "z": jnp.zeros((1,), jnp.float32), "t": cv[2]}
-        d = model.diffusion(p, c)
-        if any(isinstance(x, Tensor) for x in d):
-            raise MorphogenError(f"export-web: model {model.name} has anisotropic diffusion, "
-                                 "which the exported page does not support")
-        return model.reaction(u, p, c), tuple(jnp.asarray(x, jnp.float32) for x in d)
-
     s = len(species)
-    try:
-        closed = jax.make_jaxpr(traced)(jnp.zeros((s, 1), jnp.float32),
-                                        [jnp.float32(0)] * len(names),
-                                        [jnp.zeros((1,), jnp.float32)] * 3)
-    except MorphogenError:
-        raise
-    except Exception as exc:  # a model JAX cannot trace on one cell
-        raise MorphogenError(f"export-web: model {model.name} cannot be traced into a shader "
-                             f"({type(exc).__name__})") from None
-    em = _Emitter(model.name)
+    closed = cell_jaxpr(model, names, who="export-web", target="the exported page")
+    em = Emitter(GLSL, who="export-web", target="the exported page", model=model.name)
     cell = np.array([[f"c.{'xyzw'[i]}"] for i in range(s)], dtype=object)
     pvals = [np.array(f"p_{i}", dtype=object) for i in range(len(names))]
     coords = [np.array(["cx"], dtype=object), np.array(["cy"], dtype=object),
