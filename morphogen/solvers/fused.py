@@ -1,0 +1,308 @@
+"""The fused CPU step: explicit Euler on a 2D grid as one loop over cells, compiled by Numba.
+
+XLA on CPU compiles an explicit step of a big grid (stencil, reaction and update in one fusion)
+to about half the speed of a hand-fused single-thread loop (Gray-Scott 256², one core:
+``bench/results/gs_single.json``, docs/schemes.md). This module writes that loop for any model:
+the model's own ``reaction`` and ``diffusion`` are traced on one cell into the jaxpr the engine
+compiles (:func:`morphogen.models.cell_code.cell_jaxpr`), each operation becomes one line of
+Python (:data:`NUMBA`), and the lines sit in a loop that computes, per cell and species,
+
+.. math::
+    u' = u + dt\\,(R(u, p, c) + D\\,\\Delta u),
+
+with the 5- or 9-point Laplacian of :mod:`morphogen.domains.stencils` term for term (the same
+order of additions, the same division by ``dx^2``), the ghost cells of
+:mod:`morphogen.domains.grid` (wrap for periodic, the edge value for no flux), the model's
+clamp as ``jnp.clip`` takes it, and the clock ``t += dt`` in float32; two buffers, swapped every
+step. XLA's floating-point mode is reproduced (:mod:`morphogen.solvers.fused_jit`: fused
+multiply-adds, flush-to-zero), so the two agree to float32 rounding; functions such as ``exp``
+come from different libraries and may differ in the last bit.
+
+:func:`fused_step` gives the step only where it computes what the JAX step computes and the
+processor is an x86-64 CPU with Numba installed (the ``fast`` extra); ``None`` otherwise, and
+the caller keeps the JAX path (:func:`morphogen.engine.simulate.simulate`). ``MORPHOGEN_FUSED=off``
+(:data:`ENV`) turns it off.
+
+The generated source holds only generated names (``s0``, ``q3``, ``t17``, ``k2``, …) and
+Python's operators: no model, species or parameter name and no text from a model file reaches
+``compile``; constants are float32 globals ``k0``, ``k1``, … bound beside it.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from morphogen.domains.grid import Grid
+from morphogen.errors import MorphogenError
+from morphogen.models.cell_code import Dialect, Emitter, cell_jaxpr
+from morphogen.models.model import Model
+
+ENV = "MORPHOGEN_FUSED"
+"""``off``: every run takes the JAX path; ``on``: the fused step wherever it applies, however
+short the run; unset (or anything else): where it applies and the run has at least
+:data:`MIN_WORK` cell-steps."""
+
+MIN_WORK = 2**32
+"""Cell-steps (cells × steps) from which a run takes the fused step by default (256² × 65 536
+steps). The fused step saves about 0.3 ns a cell-step on one core (Gray-Scott 256²: 1.3e9
+cell-steps per CPU-second against 0.9e9, ``bench/results/gs_single.json``), but a process pays
+for Numba's start (about 0.65 CPU-seconds measured through ``morphogen simulate``, the kernel
+loaded from disk) and once per kernel for its compile (2-3 s, 13 s for GenRD's 110
+parameters; kept on disk when the compile cache is on, :mod:`morphogen.util.compile_cache`):
+from 2³² cell-steps a run gains about 0.7 s even when it starts Numba."""
+
+_BINARY = {"add": "({} + {})", "sub": "({} - {})", "mul": "({} * {})", "div": "({} / {})",
+           "max": "np.maximum({}, {})", "min": "np.minimum({}, {})", "pow": "np.power({}, {})",
+           "atan2": "np.arctan2({}, {})", "rem": "np.fmod({}, {})",
+           "lt": "({} < {})", "le": "({} <= {})", "gt": "({} > {})", "ge": "({} >= {})",
+           "eq": "({} == {})", "ne": "({} != {})", "and": "({} & {})", "or": "({} | {})"}
+_UNARY = {"neg": "(-{})", "exp": "np.exp({})", "log": "np.log({})", "sqrt": "np.sqrt({})",
+          "tanh": "np.tanh({})", "sin": "np.sin({})", "cos": "np.cos({})", "tan": "np.tan({})",
+          "abs": "np.abs({})", "sign": "np.sign({})", "floor": "np.floor({})",
+          "ceil": "np.ceil({})", "exp2": "np.exp2({})", "log1p": "np.log1p({})",
+          "expm1": "np.expm1({})", "square": "({0} * {0})", "not": "(not {})",
+          "asin": "np.arcsin({})", "acos": "np.arccos({})", "atan": "np.arctan({})",
+          "sinh": "np.sinh({})", "cosh": "np.cosh({})"}
+
+
+def _integer_pow(n: int) -> str:
+    """``x**n`` as repeated multiplication (``k1`` is the constant 1)."""
+    if n == 0:
+        return "({0} * k0 + k1)"
+    body = " * ".join(["{0}"] * abs(n))
+    return f"({body})" if n > 0 else f"(k1 / ({body}))"
+
+
+def _declare(kind: str, name: str, expr: str) -> str:
+    return f"    {name} = {expr}"
+
+
+NUMBA = Dialect(
+    binary=_BINARY, unary=_UNARY, integer_pow=_integer_pow, literal=repr, true="True",
+    false="False", declare=_declare, select="({1} if {0} else {2})",
+    clamp="np.minimum(np.maximum({1}, {0}), {2})", to_float="(k1 if {} else k0)",
+    to_bool="({} != k0)")
+"""How Python for Numba writes each operation on float32 scalars (each constant a float32
+global ``k…``, bound by :class:`_Constants`)."""
+
+
+class _Constants:
+    """Float32 constants as the globals ``k0``, ``k1``, … (``k0 = 0``, ``k1 = 1``)."""
+
+    def __init__(self) -> None:
+        self.values: list[float] = []
+        self.add(0.0)
+        self.add(1.0)
+
+    def add(self, value: Any) -> str:
+        v = float(np.float32(value))
+        for i, old in enumerate(self.values):
+            if np.float32(old).tobytes() == np.float32(v).tobytes():
+                return f"k{i}"
+        self.values.append(v)
+        return f"k{len(self.values) - 1}"
+
+
+class _Float32Emitter(Emitter):
+    """An :class:`~morphogen.models.cell_code.Emitter` that refuses values other than float32
+    and booleans (integer arithmetic would change meaning as float32)."""
+
+    def equation(self, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]:
+        for var in eqn.outvars:
+            if str(var.aval.dtype) not in ("float32", "bool"):
+                raise self.refuse(f"{eqn.primitive.name} on {var.aval.dtype}")
+        return super().equation(eqn, ins)
+
+
+@dataclass(frozen=True)
+class KernelSource:
+    """A generated kernel: Python source defining ``advance`` and its float32 constants."""
+
+    source: str
+    constants: tuple[float, ...]
+
+
+def kernel_source(model: Model, names: Sequence[str], *, boundary: str, stencil: int,
+                  dx: float, clamp: tuple[float, float] | None) -> KernelSource:
+    """The source of ``advance(cur, nxt, steps, t, dt, xs, ys, qs) -> (u, t)``, which runs
+    under flush-to-zero and denormals-are-zero (:mod:`morphogen.solvers.fused_jit`).
+
+    ``cur`` (the state, float32 ``(S, H, W)``) and ``nxt`` (as large) are the two buffers;
+    ``xs`` (``(W,)``) and ``ys`` (``(H,)``) the cell-centre coordinates; ``qs`` the parameters
+    of ``names``, in order (float32 ``(P,)``). Each row is one loop over its interior cells
+    with the border columns done apart, so that LLVM vectorises it. A model operation the
+    kernel cannot write is a :class:`~morphogen.errors.MorphogenError`.
+    """
+    if boundary not in ("periodic", "neumann") or stencil not in (5, 9):
+        raise MorphogenError(f"the fused step takes periodic or no-flux boundaries and 5- or "
+                             f"9-point stencils, not {boundary} with {stencil} points")
+    who, target = "fused step", "the fused CPU step"
+    closed = cell_jaxpr(model, names, who=who, target=target)
+    consts = _Constants()
+    em = _Float32Emitter(replace(NUMBA, literal=consts.add), who=who, target=target,
+                         model=model.name)
+    s = len(model.species)
+    cell = np.array([[f"s{i}"] for i in range(s)], dtype=object)
+    params = [np.array(f"q{i}", dtype=object) for i in range(len(names))]
+    coords = [np.array(["xc"], dtype=object), np.array(["yc"], dtype=object),
+              np.array(["tc"], dtype=object)]
+    outs = em.run(closed.jaxpr, closed.consts, [cell, *params, *coords])
+    reaction = np.broadcast_to(outs[0], (s, 1))
+    diffusion = [np.broadcast_to(d, (1,)).ravel()[0] for d in outs[1:1 + s]]
+    h2 = consts.add(dx * dx)
+    laps = []
+    for i in range(s):
+        c, n, so = f"rc{i}", f"rn{i}", f"rs{i}"
+        edges = f"((({n}[x] + {so}[x]) + {c}[xl]) + {c}[xr])"
+        if stencil == 5:
+            laps.append(f"l{i} = ({edges} - {consts.add(4.0)} * s{i}) / {h2}")
+        else:
+            corners = f"((({n}[xl] + {n}[xr]) + {so}[xl]) + {so}[xr])"
+            laps.append(f"l{i} = (({edges} * {consts.add(2 / 3)} + {corners} * "
+                        f"{consts.add(1 / 6)}) - s{i} * {consts.add(10 / 3)}) / {h2}")
+    update = []
+    for i in range(s):
+        update.append(f"v{i} = s{i} + dt * ({reaction[i, 0]} + {diffusion[i]} * l{i})")
+        if clamp is not None:
+            lo, hi = consts.add(clamp[0]), consts.add(clamp[1])
+            update.append(f"v{i} = np.minimum(np.maximum(v{i}, {lo}), {hi})")
+        update.append(f"ro{i}[x] = v{i}")
+    rows = ", ".join(f"rc{i}, rn{i}, rs{i}" for i in range(s))
+    outs_ = ", ".join(f"ro{i}" for i in range(s))
+    periodic = boundary == "periodic"
+    west, east = ("w - 1", "0") if periodic else ("0", "w - 1")
+    north, south = ("h - 1", "0") if periodic else ("0", "h - 1")
+    views = ", ".join(f"cur[{i}, y], cur[{i}, yn], cur[{i}, ys_]" for i in range(s))
+    targets = ", ".join(f"nxt[{i}, y]" for i in range(s))
+    body = [*(f"s{i} = rc{i}[x]" for i in range(s)), *laps, *em.lines, *update]
+
+    def cell(x: str, xl: str, xr: str, indent: str) -> list[str]:
+        return [f"{indent}x = {x}", f"{indent}xl = {xl}", f"{indent}xr = {xr}",
+                f"{indent}xc = xs[x]", *(indent + line.strip() for line in body)]
+
+    lines = [
+        "@njit",
+        f"def row({rows}, {outs_}, xs, yc, tc, dt, qs):",
+        "    w = rc0.shape[0]",
+        *(f"    q{i} = qs[{i}]" for i in range(len(names))),
+        *cell("0", west, "1", "    "),
+        "    for i in range(1, w - 1):",
+        *cell("i", "i - 1", "i + 1", "        "),
+        *cell("w - 1", "w - 2", east, "    "),
+        "",
+        "",
+        "@njit",
+        "def advance(cur, nxt, steps, tc, dt, xs, ys, qs):",
+        "    mode = stmxcsr()",
+        "    ldmxcsr(np.uint32(mode | FTZ_DAZ))",
+        "    h = cur.shape[1]",
+        "    for _ in range(steps):",
+        "        for y in range(h):",
+        f"            yn = y - 1 if y > 0 else {north}",
+        f"            ys_ = y + 1 if y < h - 1 else {south}",
+        f"            row({views}, {targets}, xs, ys[y], tc, dt, qs)",
+        "        cur, nxt = nxt, cur",
+        "        tc = tc + dt",
+        "    ldmxcsr(mode)",
+        "    return cur, tc",
+        "",
+    ]
+    return KernelSource("\n".join(lines), tuple(consts.values))
+
+
+class FusedStep:
+    """``step(u, t, dt, n) -> (u, t)``: ``n`` fused Euler steps from ``(u, t)``; ``u`` is a new
+    float32 array ``(S, H, W)`` (the input is not written), ``t`` a float32."""
+
+    def __init__(self, advance: Any, params: np.ndarray, xs: np.ndarray, ys: np.ndarray):
+        self.advance, self.params, self.xs, self.ys = advance, params, xs, ys
+
+    def __call__(self, u: Any, t: Any, dt: float, n: int) -> tuple[Any, Any]:
+        cur = np.array(u, np.float32, order="C", copy=True)
+        out, t = self.advance(cur, np.empty_like(cur), n, np.float32(t), np.float32(dt),
+                              self.xs, self.ys, self.params)
+        return out, np.float32(t)
+
+
+def fused_step(model: Model, domain: Any, params: Mapping[str, Any], *, scheme: Any,
+               noise: Any, clamp: tuple[float, float] | None, dtype: Any, steps: int
+               ) -> FusedStep | None:
+    """The fused step of one state of ``model`` on ``domain`` for a run of ``steps`` steps, or
+    ``None`` where the JAX step runs.
+
+    It runs where it computes what the JAX step does, when :data:`ENV` allows (by default from
+    :data:`MIN_WORK` cell-steps): JAX's backend is the CPU, an x86-64 one, and Numba is
+    installed; the scheme is ``euler`` (by name); no noise; a 2D
+    :class:`~morphogen.domains.grid.Grid` (not a subclass) with the 5- or 9-point stencil and
+    the same periodic or no-flux boundary for every species (nothing held); float32; every
+    parameter one number; isotropic diffusion and a reaction of operations the kernel writes
+    (:func:`kernel_source`).
+    """
+    if type(domain) is not Grid or domain.ndim != 2 or domain.is_spectral:
+        return None
+    mode = os.environ.get(ENV, "").strip().lower()
+    if mode == "off" or (mode != "on" and domain.size * steps < MIN_WORK):
+        return None
+    if not (isinstance(scheme, str) and scheme == "euler") or (
+            noise is not None and noise.amplitude > 0):
+        return None
+    if np.dtype(dtype) != np.float32:
+        return None
+    values = [np.asarray(v) for v in params.values()]
+    if any(v.ndim != 0 for v in values):
+        return None
+    kinds = {b.kind for b in domain.boundaries(model.species)}
+    if len(kinds) != 1 or kinds & {"dirichlet"}:
+        return None
+    if importlib.util.find_spec("numba") is None:
+        return None
+    import jax
+
+    if jax.default_backend() != "cpu":
+        return None
+    try:
+        from morphogen.solvers import fused_jit
+    except ImportError:  # a Numba that does not import (one built for another NumPy)
+        return None
+    if not fused_jit.SUPPORTED:
+        return None
+    stencil = 5 if domain._points.name == "5-point" else 9
+    try:
+        code = _source(model, tuple(params), kinds.pop(), stencil, float(domain.dx),
+                       tuple(float(c) for c in clamp) if clamp is not None else None)
+    except MorphogenError:
+        return None
+    coords = domain.coords
+    try:  # Numba compiles at the first call: a kernel it cannot compile leaves the JAX path
+        step = FusedStep(
+            fused_jit.compile_kernel(code.source, code.constants, _cache_directory()),
+            np.array(values, np.float32).reshape(-1),
+            np.ascontiguousarray(coords["x"].ravel(), np.float32),
+            np.ascontiguousarray(coords["y"].ravel(), np.float32))
+        step(np.zeros((len(model.species), *domain.shape), np.float32), 0.0, 1.0, 0)
+    except Exception:  # noqa: BLE001 (any failure of Numba's compiler)
+        return None
+    return step
+
+
+def _cache_directory() -> Path | None:
+    """Where compiled kernels are kept: beside JAX's persistent cache when it is on
+    (``<its folder>-fused``), else nowhere."""
+    import jax
+
+    folder = jax.config.jax_compilation_cache_dir
+    return Path(f"{folder}-fused") if folder else None
+
+
+@lru_cache(maxsize=32)
+def _source(model: Model, names: tuple[str, ...], boundary: str, stencil: int, dx: float,
+            clamp: tuple[float, float] | None) -> KernelSource:
+    return kernel_source(model, names, boundary=boundary, stencil=stencil, dx=dx, clamp=clamp)
