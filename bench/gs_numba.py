@@ -1,5 +1,5 @@
 """A fused single-thread Numba loop for Gray-Scott on a periodic 2D grid: the reference of
-``bench/bench_gs_single.py`` (needs Numba: ``.venv-bench``; never imported by the package).
+``bench/bench_gs_single.py`` (needs Numba, the ``fast`` extra; never imported by the package).
 
 One explicit Euler step of the library model ``gray-scott`` (Skaggs eqs. 2.3-2.4) with the
 5-point Laplacian, ``dx = 1``, float32, state ``(2, H, W)`` (``u``, ``v``) in row-major order:
@@ -19,7 +19,8 @@ vectorises the interior (16 floats a vector on AVX-512).
 Same arithmetic as XLA on CPU, which contracts ``a * b + c`` into fused multiply-adds and runs
 with flush-to-zero and denormals-are-zero (a denormal result or input reads as 0):
 
-- ``fastmath={"contract"}`` (:data:`FASTMATH`) and nothing else: contraction only, no
+- ``fastmath={"contract"}`` (:data:`FASTMATH`, with the MXCSR helpers shared with the
+  package's fused step, :mod:`morphogen.solvers.fused_jit`) and nothing else: contraction only, no
   reassociation. LLVM does not always pick the same pairs to fuse as XLA (one step from a random
   state: u bit-identical, 5 % of v one rounding apart), so the two agree to float32 rounding,
   not bit for bit; without contraction, 27 % of cells differ after one step.
@@ -32,56 +33,10 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from llvmlite import ir
-from numba import types
-from numba.core import cgutils
-from numba.extending import intrinsic
 
-FASTMATH = {"contract"}
-"""LLVM fast-math flags of the loop: fused multiply-adds, as XLA compiles."""
+from morphogen.solvers.fused_jit import FASTMATH, FTZ_DAZ, get_mxcsr, set_mxcsr
 
-FTZ_DAZ = 0x8040
-"""MXCSR bits (x86-64): flush-to-zero (bit 15) and denormals-are-zero (bit 6)."""
-
-
-def _mxcsr_call(builder, name, slot):
-    fnty = ir.FunctionType(ir.VoidType(), [slot.type])
-    builder.call(cgutils.get_or_insert_function(builder.module, fnty, name), [slot])
-
-
-@intrinsic
-def _stmxcsr(typingctx):
-    """The calling thread's MXCSR (``llvm.x86.sse.stmxcsr``)."""
-    def codegen(context, builder, signature, args):
-        slot = cgutils.alloca_once(builder, ir.IntType(32))
-        _mxcsr_call(builder, "llvm.x86.sse.stmxcsr", slot)
-        return builder.load(slot)
-
-    return types.uint32(), codegen
-
-
-@intrinsic
-def _ldmxcsr(typingctx, value):
-    """Set the calling thread's MXCSR (``llvm.x86.sse.ldmxcsr``)."""
-    def codegen(context, builder, signature, args):
-        slot = cgutils.alloca_once(builder, ir.IntType(32))
-        builder.store(args[0], slot)
-        _mxcsr_call(builder, "llvm.x86.sse.ldmxcsr", slot)
-        return context.get_dummy_value()
-
-    return types.none(types.uint32), codegen
-
-
-@numba.njit(cache=False)
-def get_mxcsr():
-    """MXCSR of the calling thread."""
-    return _stmxcsr()
-
-
-@numba.njit(cache=False)
-def set_mxcsr(value):
-    """Set MXCSR of the calling thread to ``value`` (``np.uint32``)."""
-    _ldmxcsr(value)
+__all__ = ["FASTMATH", "FTZ_DAZ", "advance", "get_mxcsr", "set_mxcsr"]
 
 
 @numba.njit(inline="always")
