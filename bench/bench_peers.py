@@ -338,10 +338,10 @@ def _cpu_rounds(runs: dict[str, Run], rounds: dict[str, int]) -> tuple[dict[str,
 def curves() -> dict:
     """Schnakenberg (Du = 1, Dv = 40, a = 0.1, b = 0.9), 256², T = 30: every scheme and
     Exponax's ETDRK4 over a range of steps (and tolerances), CPU seconds per run (XLA on one
-    thread: run with ``XLA_FLAGS=--xla_cpu_multi_thread_eigen=false
-    intra_op_parallelism_threads=1``), error against float64 ``etdrk4`` at ``dt = 0.01`` on
-    the same discretisation (5-point rows against the 5-point one, spectral rows against the
-    spectral one)."""
+    thread: run with ``XLA_FLAGS=--xla_cpu_multi_thread_eigen=false``,
+    :data:`morphogen.util.cluster.SINGLE_THREAD`), error against float64 ``etdrk4`` at
+    ``dt = 0.01`` on the same discretisation (5-point rows against the 5-point one, spectral
+    rows against the spectral one)."""
     problem = PROBLEMS["schnakenberg"]
     model = problem["model"]()
     p = {k: float(v) for k, v in model.parameters().items()}

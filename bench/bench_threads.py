@@ -30,7 +30,8 @@ import sys
 import time
 from pathlib import Path
 
-SINGLE = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+from morphogen.util.cluster import SINGLE_THREAD
+
 VARIANTS = ("one_thread", "xla_threads", "processes")
 WORKLOADS = ("networks", "skaggs")
 REPEATS = 3
@@ -104,7 +105,7 @@ def _spawn(workload: str, variant: str) -> dict:
     env = {**os.environ, "JAX_PLATFORMS": "cpu", "RAY_USAGE_STATS_ENABLED": "0"}
     env.pop("XLA_FLAGS", None)
     if variant != "xla_threads":
-        env["XLA_FLAGS"] = SINGLE
+        env["XLA_FLAGS"] = SINGLE_THREAD
     load = os.getloadavg()
     out = subprocess.run([sys.executable, "-m", "bench.bench_threads", workload, variant],
                          cwd=ROOT, env=env, capture_output=True, text=True, check=True)

@@ -8,9 +8,11 @@ from typing import Any
 
 from morphogen.errors import MorphogenError
 
-SINGLE_THREAD = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
-"""``XLA_FLAGS`` of the workers of a local Ray (unless the caller set ``XLA_FLAGS``): one
-thread each, one worker per core."""
+SINGLE_THREAD = "--xla_cpu_multi_thread_eigen=false"
+"""``XLA_FLAGS`` of a single-threaded XLA process: the workers of a local Ray (unless the
+caller set ``XLA_FLAGS``), one worker per core, and the scripts that time one process per
+core. XLA has no flag for its intra-op thread pool; this one keeps Eigen's operations on the
+calling thread."""
 
 
 def cores() -> int:

@@ -62,6 +62,7 @@ from morphogen.search.networks.genome import (  # noqa: E402
     table2_spec,
 )
 from morphogen.search.networks.operators import Operators  # noqa: E402
+from morphogen.util.cluster import SINGLE_THREAD  # noqa: E402
 
 HERE = Path(__file__).parent
 RUNS = 3
@@ -71,7 +72,6 @@ EVALS = {1: Evaluation(stage2="graded"), 2: Evaluation()}
 (its populations hold spots from the first generation, so the grade orders only their tail),
 Experiment 2's use the default, the stationary grade (docs/networks.md)."""
 EVAL = EVALS[2]
-SINGLE_THREAD = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
 
 
 def experiment(number: int) -> tuple[NetworkSpec, object, Operators]:

@@ -65,8 +65,9 @@ import time
 from functools import lru_cache
 from pathlib import Path
 
-os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false "
-                      "intra_op_parallelism_threads=1")
+from morphogen.util.cluster import SINGLE_THREAD
+
+os.environ.setdefault("XLA_FLAGS", SINGLE_THREAD)
 sys.path.insert(0, str(Path(__file__).parent))
 
 import jax  # noqa: E402

@@ -20,8 +20,9 @@ import tempfile
 import time
 from pathlib import Path
 
-os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false "
-                      "intra_op_parallelism_threads=1")
+from morphogen.util.cluster import SINGLE_THREAD
+
+os.environ.setdefault("XLA_FLAGS", SINGLE_THREAD)
 
 from make_figures import BUDGET, EVAL, experiment  # noqa: E402
 
