@@ -34,9 +34,21 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from morphogen.solvers.fused_jit import FASTMATH, FTZ_DAZ, get_mxcsr, set_mxcsr
+from morphogen.solvers.fused_jit import FASTMATH, FTZ_DAZ, ldmxcsr, stmxcsr
 
 __all__ = ["FASTMATH", "FTZ_DAZ", "advance", "get_mxcsr", "set_mxcsr"]
+
+
+@numba.njit(cache=True)
+def get_mxcsr():
+    """MXCSR of the calling thread."""
+    return stmxcsr()
+
+
+@numba.njit(cache=True)
+def set_mxcsr(value):
+    """Set MXCSR of the calling thread to ``value`` (``np.uint32``)."""
+    ldmxcsr(value)
 
 
 @numba.njit(inline="always")

@@ -23,7 +23,6 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-import numba
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
@@ -65,18 +64,6 @@ def ldmxcsr(typingctx, value):
         return context.get_dummy_value()
 
     return types.none(types.uint32), codegen
-
-
-@numba.njit(cache=True)
-def get_mxcsr():
-    """MXCSR of the calling thread."""
-    return stmxcsr()
-
-
-@numba.njit(cache=True)
-def set_mxcsr(value):
-    """Set MXCSR of the calling thread to ``value`` (``np.uint32``)."""
-    ldmxcsr(value)
 
 
 def module_text(source: str, constants: Sequence[float], *, cache: bool) -> str:
