@@ -55,8 +55,8 @@ MIN_WORK = 2**32
 steps). The fused step saves about 0.3 ns a cell-step on one core (Gray-Scott 256²: 1.3e9
 cell-steps per CPU-second against 0.9e9, ``bench/results/gs_single.json``), but a process pays
 for Numba's start (about 0.65 CPU-seconds measured through ``morphogen simulate``, the kernel
-loaded from disk) and once per kernel for its compile (2-3 s, 13 s for GenRD's 110
-parameters; kept on disk when the compile cache is on, :mod:`morphogen.util.compile_cache`):
+loaded from disk) and once per kernel for its compile (about 0.8 s, 1.5 s for GenRD's
+110 parameters; kept on disk when the compile cache is on, :mod:`morphogen.util.compile_cache`):
 from 2³² cell-steps a run gains about 0.7 s even when it starts Numba."""
 
 _BINARY = {"add": "({} + {})", "sub": "({} - {})", "mul": "({} * {})", "div": "({} / {})",
@@ -135,11 +135,14 @@ def kernel_source(model: Model, names: Sequence[str], *, boundary: str, stencil:
     """The source of ``advance(cur, nxt, steps, t, dt, xs, ys, qs) -> (u, t)``, which runs
     under flush-to-zero and denormals-are-zero (:mod:`morphogen.solvers.fused_jit`).
 
-    ``cur`` (the state, float32 ``(S, H, W)``) and ``nxt`` (as large) are the two buffers;
-    ``xs`` (``(W,)``) and ``ys`` (``(H,)``) the cell-centre coordinates; ``qs`` the parameters
-    of ``names``, in order (float32 ``(P,)``). Each row is one loop over its interior cells
-    with the border columns done apart, so that LLVM vectorises it. A model operation the
-    kernel cannot write is a :class:`~morphogen.errors.MorphogenError`.
+    ``cur`` (the state, float32 ``(S, H, W + 2)``: each row between a ghost column on either
+    side) and ``nxt`` (as large) are the two buffers; ``xs`` (``(W + 2,)``, the ghosts' entries
+    unused) and ``ys`` (``(H,)``) the cell-centre coordinates; ``qs`` the parameters of
+    ``names``, in order (float32 ``(P,)``). Each step first fills the ghost columns (the
+    opposite border column when periodic, the border's own value for no flux), so that every
+    row is one loop over its cells that LLVM vectorises, with the model's cell code written
+    once. A model operation the kernel cannot write is a
+    :class:`~morphogen.errors.MorphogenError`.
     """
     if boundary not in ("periodic", "neumann") or stencil not in (5, 9):
         raise MorphogenError(f"the fused step takes periodic or no-flux boundaries and 5- or "
@@ -178,25 +181,21 @@ def kernel_source(model: Model, names: Sequence[str], *, boundary: str, stencil:
     rows = ", ".join(f"rc{i}, rn{i}, rs{i}" for i in range(s))
     outs_ = ", ".join(f"ro{i}" for i in range(s))
     periodic = boundary == "periodic"
-    west, east = ("w - 1", "0") if periodic else ("0", "w - 1")
+    west, east = ("w", "1") if periodic else ("1", "w")
     north, south = ("h - 1", "0") if periodic else ("0", "h - 1")
     views = ", ".join(f"cur[{i}, y], cur[{i}, yn], cur[{i}, ys_]" for i in range(s))
     targets = ", ".join(f"nxt[{i}, y]" for i in range(s))
-    body = [*(f"s{i} = rc{i}[x]" for i in range(s)), *laps, *em.lines, *update]
-
-    def cell(x: str, xl: str, xr: str, indent: str) -> list[str]:
-        return [f"{indent}x = {x}", f"{indent}xl = {xl}", f"{indent}xr = {xr}",
-                f"{indent}xc = xs[x]", *(indent + line.strip() for line in body)]
-
     lines = [
         "@njit",
         f"def row({rows}, {outs_}, xs, yc, tc, dt, qs):",
-        "    w = rc0.shape[0]",
+        "    w = rc0.shape[0] - 2",
         *(f"    q{i} = qs[{i}]" for i in range(len(names))),
-        *cell("0", west, "1", "    "),
-        "    for i in range(1, w - 1):",
-        *cell("i", "i - 1", "i + 1", "        "),
-        *cell("w - 1", "w - 2", east, "    "),
+        "    for x in range(1, w + 1):",
+        "        xl = x - 1",
+        "        xr = x + 1",
+        "        xc = xs[x]",
+        *(f"        s{i} = rc{i}[x]" for i in range(s)),
+        *("        " + line.strip() for line in [*laps, *em.lines, *update]),
         "",
         "",
         "@njit",
@@ -204,7 +203,11 @@ def kernel_source(model: Model, names: Sequence[str], *, boundary: str, stencil:
         "    mode = stmxcsr()",
         "    ldmxcsr(np.uint32(mode | FTZ_DAZ))",
         "    h = cur.shape[1]",
+        "    w = cur.shape[2] - 2",
         "    for _ in range(steps):",
+        "        for y in range(h):",
+        *(f"            cur[{i}, y, 0] = cur[{i}, y, {west}]" for i in range(s)),
+        *(f"            cur[{i}, y, w + 1] = cur[{i}, y, {east}]" for i in range(s)),
         "        for y in range(h):",
         f"            yn = y - 1 if y > 0 else {north}",
         f"            ys_ = y + 1 if y < h - 1 else {south}",
@@ -226,10 +229,12 @@ class FusedStep:
         self.advance, self.params, self.xs, self.ys = advance, params, xs, ys
 
     def __call__(self, u: Any, t: Any, dt: float, n: int) -> tuple[Any, Any]:
-        cur = np.array(u, np.float32, order="C", copy=True)
+        u = np.asarray(u, np.float32)
+        cur = np.zeros((*u.shape[:-1], u.shape[-1] + 2), np.float32)
+        cur[..., 1:-1] = u
         out, t = self.advance(cur, np.empty_like(cur), n, np.float32(t), np.float32(dt),
                               self.xs, self.ys, self.params)
-        return out, np.float32(t)
+        return np.ascontiguousarray(out[..., 1:-1]), np.float32(t)
 
 
 def fused_step(model: Model, domain: Any, params: Mapping[str, Any], *, scheme: Any,
@@ -285,7 +290,7 @@ def fused_step(model: Model, domain: Any, params: Mapping[str, Any], *, scheme: 
         step = FusedStep(
             fused_jit.compile_kernel(code.source, code.constants, _cache_directory()),
             np.array(values, np.float32).reshape(-1),
-            np.ascontiguousarray(coords["x"].ravel(), np.float32),
+            np.pad(np.asarray(coords["x"], np.float32).ravel(), 1),
             np.ascontiguousarray(coords["y"].ravel(), np.float32))
         step(np.zeros((len(model.species), *domain.shape), np.float32), 0.0, 1.0, 0)
     except Exception:  # noqa: BLE001 (any failure of Numba's compiler)
