@@ -24,8 +24,10 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -78,9 +80,16 @@ class Monitor:
 def bad_species(u: Array, batched: bool) -> np.ndarray:
     """Species with a NaN, Inf or a value beyond :data:`OVERFLOW`, shape ``(B, S)`` (``B = 1``
     for one state)."""
+    return np.asarray(_bad_flags(u, batched))
+
+
+@partial(jax.jit, static_argnames="batched")
+def _bad_flags(u: Array, batched: bool) -> Array:
+    """:func:`bad_species` as one compiled pass (op by op, a 256² state took about 1 ms a
+    check, a sixth of a fused chunk's time)."""
     bad = ~jnp.isfinite(u) | (jnp.abs(u) > OVERFLOW)
     flags = bad.any(axis=tuple(range(2 if batched else 1, u.ndim)))
-    return np.asarray(flags if batched else flags[None])
+    return flags if batched else flags[None]
 
 
 class _Check(Monitor):

@@ -230,6 +230,13 @@ def grid_scale_dominated(g: Array, dev: Array, scale: Array) -> Array:
     return (g > GRID_SCALE_RATIO * dev) & (g > 1e-4 * scale)
 
 
+@partial(jax.jit, static_argnames="batched")
+def _peak(u: Array, batched: bool) -> Array:
+    """``max |u|`` per member and species, shape ``(B, S)``, compiled once per shape."""
+    v = u if batched else u[None]
+    return jnp.max(jnp.abs(v), axis=tuple(range(2, v.ndim)))
+
+
 def divergence_flags(
     u: Array, scale: np.ndarray, prev_grid: np.ndarray | None, batched: bool, on_grid: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -239,8 +246,7 @@ def divergence_flags(
     the grid-scale RMS exceeds :data:`GRID_SCALE_RATIO` of the deviation RMS, is not round-off
     (``> 1e-4 scale``) and grew by :data:`GROWTH` since ``prev_grid``. All ``(B, S)``.
     """
-    v = u if batched else u[None]
-    peak = np.asarray(jnp.max(jnp.abs(v), axis=tuple(range(2, v.ndim))), np.float64)
+    peak = np.asarray(_peak(u, batched), np.float64)
     out = peak > RANGE_FACTOR * scale
     if not on_grid:
         zeros = np.zeros_like(out)
