@@ -59,6 +59,12 @@ loaded from disk) and once per kernel for its compile (about 0.8 s, 1.5 s for Ge
 110 parameters; kept on disk when the compile cache is on, :mod:`morphogen.util.compile_cache`):
 from 2³² cell-steps a run gains about 0.7 s even when it starts Numba."""
 
+MIN_MEMBER_WORK = 2**26
+"""Cell-steps a member (cells × steps) from which a population takes the fused step by default
+(128² × 4 096 steps). A search evaluates generation after generation in one process, so Numba's
+start and the compile are paid once against about 0.3 ns a cell-step saved in every member of
+every generation (20 ms a member a generation from here)."""
+
 _BINARY = {"add": "({} + {})", "sub": "({} - {})", "mul": "({} * {})", "div": "({} / {})",
            "max": "np.maximum({}, {})", "min": "np.minimum({}, {})", "pow": "np.power({}, {})",
            "atan2": "np.arctan2({}, {})", "rem": "np.fmod({}, {})",
@@ -133,7 +139,10 @@ class KernelSource:
 def kernel_source(model: Model, names: Sequence[str], *, boundary: str, stencil: int,
                   dx: float, clamp: tuple[float, float] | None) -> KernelSource:
     """The source of ``advance(cur, nxt, steps, t, dt, xs, ys, qs) -> (u, t)``, which runs
-    under flush-to-zero and denormals-are-zero (:mod:`morphogen.solvers.fused_jit`).
+    under flush-to-zero and denormals-are-zero (:mod:`morphogen.solvers.fused_jit`), and of
+    ``advance_all(cur, nxt, steps, t, dt, xs, ys, qs) -> t``, the same for a population: ``cur``
+    and ``nxt`` ``(P, S, H, W + 2)``, ``qs`` ``(P, K)``, each member advanced all ``steps`` in
+    turn (its state stays in the cache) and left in ``cur``.
 
     ``cur`` (the state, float32 ``(S, H, W + 2)``: each row between a ghost column on either
     side) and ``nxt`` (as large) are the two buffers; ``xs`` (``(W + 2,)``, the ghosts' entries
@@ -217,6 +226,16 @@ def kernel_source(model: Model, names: Sequence[str], *, boundary: str, stencil:
         "    ldmxcsr(mode)",
         "    return cur, tc",
         "",
+        "",
+        "@njit",
+        "def advance_all(cur, nxt, steps, tc, dt, xs, ys, qs):",
+        "    clock = tc",
+        "    for m in range(cur.shape[0]):",
+        "        out, clock = advance(cur[m], nxt[m], steps, tc, dt, xs, ys, qs[m])",
+        "        if steps % 2 == 1:",
+        "            cur[m] = out",
+        "    return clock",
+        "",
     ]
     return KernelSource("\n".join(lines), tuple(consts.values))
 
@@ -225,16 +244,39 @@ class FusedStep:
     """``step(u, t, dt, n) -> (u, t)``: ``n`` fused Euler steps from ``(u, t)``; ``u`` is a new
     float32 array ``(S, H, W)`` (the input is not written), ``t`` a float32."""
 
-    def __init__(self, advance: Any, params: np.ndarray, xs: np.ndarray, ys: np.ndarray):
-        self.advance, self.params, self.xs, self.ys = advance, params, xs, ys
+    def __init__(self, kernel: Any, params: np.ndarray, xs: np.ndarray, ys: np.ndarray):
+        self.kernel, self.params, self.xs, self.ys = kernel, params, xs, ys
 
     def __call__(self, u: Any, t: Any, dt: float, n: int) -> tuple[Any, Any]:
-        u = np.asarray(u, np.float32)
-        cur = np.zeros((*u.shape[:-1], u.shape[-1] + 2), np.float32)
-        cur[..., 1:-1] = u
-        out, t = self.advance(cur, np.empty_like(cur), n, np.float32(t), np.float32(dt),
-                              self.xs, self.ys, self.params)
+        cur = _padded(u)
+        out, t = self.kernel.advance(cur, np.empty_like(cur), n, np.float32(t), np.float32(dt),
+                                     self.xs, self.ys, self.params)
         return np.ascontiguousarray(out[..., 1:-1]), np.float32(t)
+
+
+class FusedPopulation:
+    """``step(u, params, t, dt, n) -> (u, t)``: ``n`` fused Euler steps of each member of a
+    population, ``u`` float32 ``(P, S, H, W)`` (a new array is returned), ``params`` float32
+    ``(P, K)`` in the order the kernel was made for, one clock ``t`` for all."""
+
+    def __init__(self, kernel: Any, xs: np.ndarray, ys: np.ndarray):
+        self.kernel, self.xs, self.ys = kernel, xs, ys
+
+    def __call__(self, u: Any, params: np.ndarray, t: Any, dt: float, n: int
+                 ) -> tuple[np.ndarray, Any]:
+        cur = _padded(u)
+        t = self.kernel.advance_all(cur, np.empty_like(cur), n, np.float32(t), np.float32(dt),
+                                    self.xs, self.ys,
+                                    np.ascontiguousarray(params, np.float32))
+        return np.ascontiguousarray(cur[..., 1:-1]), np.float32(t)
+
+
+def _padded(u: Any) -> np.ndarray:
+    """``u`` as float32 with a ghost column on either side of each row (the kernel fills them)."""
+    u = np.asarray(u, np.float32)
+    cur = np.zeros((*u.shape[:-1], u.shape[-1] + 2), np.float32)
+    cur[..., 1:-1] = u
+    return cur
 
 
 def fused_step(model: Model, domain: Any, params: Mapping[str, Any], *, scheme: Any,
@@ -243,26 +285,76 @@ def fused_step(model: Model, domain: Any, params: Mapping[str, Any], *, scheme: 
     """The fused step of one state of ``model`` on ``domain`` for a run of ``steps`` steps, or
     ``None`` where the JAX step runs.
 
-    It runs where it computes what the JAX step does, when :data:`ENV` allows (by default from
-    :data:`MIN_WORK` cell-steps): JAX's backend is the CPU, an x86-64 one, and Numba is
-    installed; the scheme is ``euler`` (by name); no noise; a 2D
+    It runs where it computes what the JAX step does (:func:`_kernel`), every parameter one
+    number, when :data:`ENV` allows (by default from :data:`MIN_WORK` cell-steps).
+    """
+    if not _wanted(domain, steps, MIN_WORK):
+        return None
+    values = [np.asarray(v) for v in params.values()]
+    if any(v.ndim != 0 for v in values):
+        return None
+    made = _kernel(model, domain, tuple(params), scheme=scheme, noise=noise, clamp=clamp,
+                   dtype=dtype)
+    if made is None:
+        return None
+    kernel, xs, ys = made
+    step = FusedStep(kernel, np.array(values, np.float32).reshape(-1), xs, ys)
+    try:  # Numba compiles at the first call: a kernel it cannot compile leaves the JAX path
+        step(np.zeros((len(model.species), *domain.shape), np.float32), 0.0, 1.0, 0)
+    except Exception:  # noqa: BLE001 (any failure of Numba's compiler)
+        return None
+    return step
+
+
+def fused_population(model: Model, domain: Any, names: Sequence[str], *, scheme: Any,
+                     clamp: tuple[float, float] | None, steps: int) -> FusedPopulation | None:
+    """The fused step of a population of ``model`` on ``domain`` whose members differ only in
+    the numbers of the parameters ``names`` (each member one number each), for ``steps`` steps
+    a member, or ``None`` where the JAX step runs (:func:`_kernel`, float32, no noise).
+
+    By default (:data:`ENV` unset) from :data:`MIN_MEMBER_WORK` cell-steps a member: the
+    choice depends on the problem, not on how many members one call gets, so a population split
+    into batches (Ray's workers) runs the same program as the whole.
+    """
+    if not _wanted(domain, steps, MIN_MEMBER_WORK):
+        return None
+    made = _kernel(model, domain, tuple(names), scheme=scheme, noise=None, clamp=clamp,
+                   dtype=np.float32)
+    if made is None:
+        return None
+    step = FusedPopulation(*made)
+    try:
+        step(np.zeros((1, len(model.species), *domain.shape), np.float32),
+             np.zeros((1, len(names)), np.float32), 0.0, 1.0, 0)
+    except Exception:  # noqa: BLE001 (any failure of Numba's compiler)
+        return None
+    return step
+
+
+def _wanted(domain: Any, steps: int, work: int) -> bool:
+    """Whether :data:`ENV` lets a run of ``steps`` steps on ``domain`` take the fused step
+    (by default: from ``work`` cell-steps)."""
+    mode = os.environ.get(ENV, "").strip().lower()
+    size = domain.size if isinstance(domain, Grid) else 0
+    return mode != "off" and (mode == "on" or size * steps >= work)
+
+
+def _kernel(model: Model, domain: Any, names: tuple[str, ...], *, scheme: Any, noise: Any,
+            clamp: tuple[float, float] | None, dtype: Any
+            ) -> tuple[Any, np.ndarray, np.ndarray] | None:
+    """The compiled kernel module and its padded ``xs`` and ``ys``, or ``None`` where it would
+    not compute what the JAX step does: JAX's backend must be the CPU, an x86-64 one, with
+    Numba installed; the scheme ``euler`` (by name); no noise; a 2D
     :class:`~morphogen.domains.grid.Grid` (not a subclass) with the 5- or 9-point stencil and
-    the same periodic or no-flux boundary for every species (nothing held); float32; every
-    parameter one number; isotropic diffusion and a reaction of operations the kernel writes
-    (:func:`kernel_source`).
+    the same periodic or no-flux boundary for every species (nothing held); float32;
+    isotropic diffusion and a reaction of operations the kernel writes (:func:`kernel_source`).
     """
     if type(domain) is not Grid or domain.ndim != 2 or domain.is_spectral:
-        return None
-    mode = os.environ.get(ENV, "").strip().lower()
-    if mode == "off" or (mode != "on" and domain.size * steps < MIN_WORK):
         return None
     if not (isinstance(scheme, str) and scheme == "euler") or (
             noise is not None and noise.amplitude > 0):
         return None
     if np.dtype(dtype) != np.float32:
-        return None
-    values = [np.asarray(v) for v in params.values()]
-    if any(v.ndim != 0 for v in values):
         return None
     kinds = {b.kind for b in domain.boundaries(model.species)}
     if len(kinds) != 1 or kinds & {"dirichlet"}:
@@ -281,21 +373,14 @@ def fused_step(model: Model, domain: Any, params: Mapping[str, Any], *, scheme: 
         return None
     stencil = 5 if domain._points.name == "5-point" else 9
     try:
-        code = _source(model, tuple(params), kinds.pop(), stencil, float(domain.dx),
+        code = _source(model, names, kinds.pop(), stencil, float(domain.dx),
                        tuple(float(c) for c in clamp) if clamp is not None else None)
     except MorphogenError:
         return None
     coords = domain.coords
-    try:  # Numba compiles at the first call: a kernel it cannot compile leaves the JAX path
-        step = FusedStep(
-            fused_jit.compile_kernel(code.source, code.constants, _cache_directory()),
-            np.array(values, np.float32).reshape(-1),
-            np.pad(np.asarray(coords["x"], np.float32).ravel(), 1),
+    kernel = fused_jit.compile_kernel(code.source, code.constants, _cache_directory())
+    return (kernel, np.pad(np.asarray(coords["x"], np.float32).ravel(), 1),
             np.ascontiguousarray(coords["y"].ravel(), np.float32))
-        step(np.zeros((len(model.species), *domain.shape), np.float32), 0.0, 1.0, 0)
-    except Exception:  # noqa: BLE001 (any failure of Numba's compiler)
-        return None
-    return step
 
 
 def _cache_directory() -> Path | None:

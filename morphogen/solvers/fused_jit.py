@@ -18,9 +18,10 @@ import os
 import platform
 import sys
 import tempfile
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from functools import lru_cache
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 from llvmlite import ir
@@ -86,9 +87,9 @@ def module_text(source: str, constants: Sequence[float], *, cache: bool) -> str:
 
 @lru_cache(maxsize=32)
 def compile_kernel(source: str, constants: tuple[float, ...], directory: Path | None = None
-                   ) -> Callable[..., Any]:
-    """The function ``advance`` of generated ``source`` (:func:`module_text`), compiled by Numba
-    when first called.
+                   ) -> Any:
+    """The functions of generated ``source`` (:func:`module_text`) as attributes of a module
+    (``advance``, ``advance_all``), each compiled by Numba when first called.
 
     With a ``directory``, the module is the file ``fused_<hash of its text>.py`` there and
     Numba keeps what it compiles beside it (``__pycache__``), so a later process loads the
@@ -113,10 +114,10 @@ def compile_kernel(source: str, constants: tuple[float, ...], directory: Path | 
                     module = importlib.util.module_from_spec(spec)
                     sys.modules[spec.name] = module  # Numba's cache finds it by name
                     spec.loader.exec_module(module)
-                    return module.advance
+                    return module
         except OSError:
             pass
     namespace: dict[str, Any] = {}
     text = module_text(source, constants, cache=False)
     exec(compile(text, "<morphogen fused step>", "exec"), namespace)  # noqa: S102
-    return namespace["advance"]
+    return SimpleNamespace(**namespace)

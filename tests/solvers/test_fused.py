@@ -8,7 +8,6 @@ at most 2e-6: contraction and library functions may round differently in the las
 
 from __future__ import annotations
 
-import importlib.util
 import io
 import sys
 import tokenize
@@ -25,22 +24,11 @@ from morphogen.models.library import LIBRARY, get_model
 from morphogen.models.model import Model
 from morphogen.solvers import fused
 from morphogen.solvers.step import Noise
+from tests.fused_support import needs_numba
 
 RTOL = 1e-5
 STEPS = 300
 
-
-
-def _numba_here() -> bool:
-    if importlib.util.find_spec("numba") is None:
-        return False
-    from morphogen.solvers.fused_jit import SUPPORTED
-
-    return SUPPORTED
-
-
-needs_numba = pytest.mark.skipif(not _numba_here(),
-                                 reason="the fused step needs Numba on an x86-64 CPU")
 
 
 @pytest.fixture
@@ -129,8 +117,9 @@ def test_no_user_text_reaches_the_compiler(monkeypatch, taken):
     code = fused.kernel_source(model, list(model.params), boundary="periodic", stencil=5,
                                dx=1.0, clamp=None)
     allowed = {"def", "for", "in", "range", "if", "else", "return", "np", "njit", "row",
-               "advance", "cur", "nxt", "steps", "tc", "dt", "xs", "ys", "qs", "xc", "yc",
-               "x", "xl", "xr", "i", "w", "h", "y", "yn", "ys_", "shape", "_", "maximum",
+               "advance", "advance_all", "cur", "nxt", "steps", "tc", "dt", "xs", "ys", "qs",
+               "xc", "yc", "m", "out", "clock", "x", "xl", "xr", "i", "w", "h", "y", "yn",
+               "ys_", "shape", "_", "maximum",
                "minimum", "exp", "not", "and", "or", "True", "False", "mode", "stmxcsr",
                "ldmxcsr", "FTZ_DAZ", "uint32"}
     for token in tokenize.generate_tokens(io.StringIO(code.source).readline):
