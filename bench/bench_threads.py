@@ -15,7 +15,10 @@ timed):
 Variants: ``one_thread`` (``XLA_FLAGS`` single-threaded, the project's test setting),
 ``xla_threads`` (no flags: XLA's own thread pool over the machine's cores) and ``processes``
 (single-threaded workers, one per core, through the Ray executors, which split the
-population into one batch per core). Reported: wall seconds per evaluation (median of
+population into one batch per core). A Skaggs generation takes the fused CPU step
+(:func:`morphogen.solvers.fused.fused_population`, where Numba is installed) by default; the
+``*_jax_step`` variants run the same with ``MORPHOGEN_FUSED=off``, the JAX step, in the same
+run. Reported: wall seconds per evaluation (median of
 :data:`REPEATS` after the compiling one), the driver's CPU seconds, the load average before and
 after, and each variant's speed-up over ``one_thread`` in the same run.
 """
@@ -33,6 +36,8 @@ from pathlib import Path
 from morphogen.util.cluster import SINGLE_THREAD
 
 VARIANTS = ("one_thread", "xla_threads", "processes")
+JAX_STEP = ("one_thread_jax_step", "processes_jax_step")
+"""The Skaggs workload's variants on the JAX step (``MORPHOGEN_FUSED=off``)."""
 WORKLOADS = ("networks", "skaggs")
 REPEATS = 3
 ROOT = Path(__file__).resolve().parent.parent
@@ -76,7 +81,8 @@ def _skaggs(variant: str):
     ga = GeneticAlgorithm(POPULATION)
     state = ga.init(jax.random.PRNGKey(0), tuple(preset_genes("gray-scott")))
     genomes = np.asarray(ga.ask(jax.random.PRNGKey(1), state)[0])
-    executor = RayExecutor(problem) if variant == "processes" else LocalExecutor(problem)
+    executor = (RayExecutor(problem) if variant.startswith("processes")
+                else LocalExecutor(problem))
 
     def once() -> int:
         fitness, _ = executor.evaluate(genomes, jax.random.PRNGKey(1))
@@ -104,8 +110,11 @@ def child(workload: str, variant: str) -> dict:
 def _spawn(workload: str, variant: str) -> dict:
     env = {**os.environ, "JAX_PLATFORMS": "cpu", "RAY_USAGE_STATS_ENABLED": "0"}
     env.pop("XLA_FLAGS", None)
+    env.pop("MORPHOGEN_FUSED", None)
     if variant != "xla_threads":
         env["XLA_FLAGS"] = SINGLE_THREAD
+    if variant in JAX_STEP:
+        env["MORPHOGEN_FUSED"] = "off"
     load = os.getloadavg()
     out = subprocess.run([sys.executable, "-m", "bench.bench_threads", workload, variant],
                          cwd=ROOT, env=env, capture_output=True, text=True, check=True)
@@ -118,11 +127,16 @@ def _spawn(workload: str, variant: str) -> dict:
 def run() -> dict:
     result: dict = {"cpus": os.cpu_count(), "repeats": REPEATS}
     for workload in WORKLOADS:
-        rows = {variant: _spawn(workload, variant) for variant in VARIANTS}
+        variants = VARIANTS + (JAX_STEP if workload == "skaggs" else ())
+        rows = {variant: _spawn(workload, variant) for variant in variants}
         base = rows["one_thread"]["wall_s_median"]
         for row in rows.values():
             row["speedup_over_one_thread"] = round(base / row["wall_s_median"], 2)
         result[workload] = rows
+    skaggs = result["skaggs"]
+    result["skaggs_jax_step_over_fused"] = {
+        v: round(skaggs[f"{v}_jax_step"]["wall_s_median"] / skaggs[v]["wall_s_median"], 2)
+        for v in ("one_thread", "processes")}
     result["skaggs_table_5_1_s"] = {"cpu_1": 39.72, "cpu_16": 27.03, "gpu": 6.39}
     return result
 
