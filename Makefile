@@ -51,7 +51,10 @@ lint: $(STAMP)
 # The flags are the suite's only: runs outside it use XLA's defaults.
 XLA_CPU := JAX_PLATFORMS=cpu XLA_FLAGS="--xla_cpu_multi_thread_eigen=false --xla_llvm_disable_expensive_passes=true --xla_backend_optimization_level=1 --xla_cpu_use_fusion_emitters=false"
 
-test: $(STAMP) lint docs
+# Lint and the API reference first, side by side on the two cores (mypy from a clean clone takes
+# about 9 s, the reference 14 s).
+test: $(STAMP)
+	$(MAKE) --no-print-directory -j2 lint docs
 	$(XLA_CPU) $(BIN)/python -m pytest -n 3 --dist loadfile --durations=20
 
 # The inner loop while editing: the suite without the tests marked slow (browser, neural
