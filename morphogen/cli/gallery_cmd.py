@@ -15,8 +15,10 @@ one line and left off the page; the others still run, and the command exits with
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from morphogen.errors import MorphogenError
@@ -46,46 +48,100 @@ def _picture(flower_dir: Path) -> Path:
     raise MorphogenError(f"{flower_dir} has no stage picture (out.png)")
 
 
+def _run_flower(path: Path, out_dir: Path, resume: bool) -> tuple[str | None, str, float]:
+    """One flower's pipeline into ``out_dir``: its picture's path relative to the gallery (or
+    ``None`` and the one-line error), and the seconds it took. Runs in a worker process too."""
+    from morphogen.flowers.pipeline import run_pipeline
+
+    started = time.perf_counter()
+    try:
+        run_pipeline(path, out_dir, resume=resume)
+        png = _picture(out_dir)
+    except MorphogenError as exc:
+        return None, str(exc), time.perf_counter() - started
+    return f"{out_dir.name}/{png.relative_to(out_dir).as_posix()}", "", \
+        time.perf_counter() - started
+
+
+def default_workers(flowers: int) -> int:
+    """Flowers run side by side: one process per core on a CPU backend (each with one XLA
+    thread), one at a time on an accelerator (they would share it)."""
+    import jax
+
+    if jax.default_backend() != "cpu":
+        return 1
+    return max(1, min(flowers, os.cpu_count() or 1))
+
+
 def run_gallery(out: str | Path, *, only: list[str] | None = None, examples: Path = EXAMPLES,
-                resume: bool = False) -> tuple[Path, list[str]]:
+                resume: bool = False, workers: int | None = None) -> tuple[Path, list[str]]:
     """Run the selected flowers into ``out/NAME/`` and write ``out/index.html``.
 
-    Returns the page and the one-line errors of the flowers that failed.
+    ``workers`` flowers run at a time, each in its own process (default
+    :func:`default_workers`; 1: one after the other in this process). Returns the page and the
+    one-line errors of the flowers that failed.
     """
-    from morphogen.flowers.pipeline import load_pipeline, run_pipeline
+    from morphogen.flowers.pipeline import load_pipeline
     from morphogen.render.gallery import write_gallery
     from morphogen.util.io import check_writable_dir, ensure_writable_dir
 
     flowers = _select(find_flowers(Path(examples)), only)
     if not flowers:
         raise MorphogenError(f"no flower pipelines in {Path(examples) / 'flowers'}")
-    pipelines = {}
     for flower in flowers:  # every file checked before anything is made
         try:
-            pipelines[flower.name] = load_pipeline(flower.path)
+            load_pipeline(flower.path)
         except MorphogenError as exc:
             raise MorphogenError(f"{flower.name} ({flower.path}): {exc}") from None
     check_writable_dir(out)
     out_dir = ensure_writable_dir(out)
-    items, errors = [], []
-    for i, flower in enumerate(flowers, 1):
-        print(f"[{i}/{len(flowers)}] {flower.caption}: {flower.path.name}", flush=True)
-        started = time.perf_counter()
-        try:
-            run_pipeline(pipelines[flower.name], out_dir / flower.name, resume=resume)
-            png = _picture(out_dir / flower.name)
-        except MorphogenError as exc:
-            errors.append(f"{flower.name}: {exc}")
-            print(f"  failed: {exc}", flush=True)
-            continue
-        items.append((png.relative_to(out_dir).as_posix(), flower.caption))
-        print(f"  done in {time.perf_counter() - started:.1f} s: {png.relative_to(out_dir)}",
-              flush=True)
+    workers = default_workers(len(flowers)) if workers is None else workers
+    results: dict[str, tuple[str | None, str, float]] = {}
+    for k, (flower, result) in enumerate(_run_all(flowers, out_dir, resume, workers), 1):
+        png, error, seconds = results[flower.name] = result
+        head = f"[{k}/{len(flowers)}] {flower.caption}: {flower.path.name}"
+        if png is None:
+            print(f"{head}: failed: {error}", flush=True)
+        else:
+            print(f"{head}: done in {seconds:.1f} s: {png}", flush=True)
+    items = [(results[f.name][0], f.caption) for f in flowers if results[f.name][0] is not None]
+    errors = [f"{f.name}: {results[f.name][1]}" for f in flowers if results[f.name][0] is None]
     page = write_gallery(out_dir, "Flowers: Ringham et al. (2021) case studies", items,
                          intro=f"{len(items)} of {len(flowers)} flower pipelines from "
                          f"{Path(examples)}; each picture is its pipeline's last stage.",
                          smooth=True)
     return page, errors
+
+
+def _run_all(flowers: list[Flower], out_dir: Path, resume: bool, workers: int
+             ) -> Iterator[tuple[Flower, tuple[str | None, str, float]]]:
+    """Each flower with its result (:func:`_run_flower`), as it finishes."""
+    if workers <= 1:
+        for flower in flowers:
+            print(f"{flower.caption}: {flower.path.name} ...", flush=True)
+            yield flower, _run_flower(flower.path, out_dir / flower.name, resume)
+        return
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    from morphogen.util.cluster import SINGLE_THREAD
+
+    # the workers start with one XLA thread each (they read XLA_FLAGS as they import JAX)
+    saved = os.environ.get("XLA_FLAGS")
+    os.environ["XLA_FLAGS"] = f"{saved or ''} {SINGLE_THREAD}".strip()
+    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
+    try:
+        running = {pool.submit(_run_flower, f.path, out_dir / f.name, resume): f
+                   for f in flowers}
+        print(f"{len(flowers)} flowers, {workers} at a time", flush=True)
+        for future in as_completed(running):
+            yield running[future], future.result()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+        if saved is None:
+            os.environ.pop("XLA_FLAGS", None)
+        else:
+            os.environ["XLA_FLAGS"] = saved
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -104,6 +160,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="where flowers/*.toml are (default: the repository's examples/)")
     fl.add_argument("--resume", action="store_true",
                     help="reuse stages already finished in DIR/NAME with the same settings")
+    fl.add_argument("--workers", type=int, metavar="N",
+                    help="flowers run at a time, each in its own process (default: one per "
+                    "core on a CPU, 1 on a GPU)")
     fl.add_argument("--list", action="store_true", help="list the flowers and exit")
     fl.set_defaults(func=run_gallery_cmd)
     nr = kinds.add_parser("neural", help="every shipped neural RD rule: its target, runs from "
@@ -159,8 +218,10 @@ def run_gallery_cmd(args: argparse.Namespace) -> int:
             print(f"{flower.name:<20} {('§' + flower.section) if flower.section else '-':<6} "
                   f"{flower.path}")
         return 0
+    if args.workers is not None and args.workers < 1:
+        raise MorphogenError(f"--workers takes a number >= 1, got {args.workers}")
     page, errors = run_gallery(args.out, only=args.only, examples=args.examples,
-                               resume=args.resume)
+                               resume=args.resume, workers=args.workers)
     print(f"wrote {page}")
     for line in errors:
         sys.stderr.write(f"morphogen: error: {line}\n")

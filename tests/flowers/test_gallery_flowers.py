@@ -95,7 +95,8 @@ def test_a_flower_failing_as_it_runs_is_one_line_and_the_others_still_run(
 
     monkeypatch.setattr(pipeline, "run_pipeline", run)
     out = tmp_path / "out"
-    assert main(["gallery", "flowers", "--out", str(out), "--examples", str(examples)]) == 2
+    assert main(["gallery", "flowers", "--out", str(out), "--examples", str(examples),
+                 "--workers", "1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["morphogen: error: other: stage 1 blew up"]
     page = (out / "index.html").read_text()
@@ -109,4 +110,31 @@ def test_unknown_flower_is_a_one_line_error(tmp_path: Path, capsys) -> None:
     assert rc == 2
     assert capsys.readouterr().err == ("morphogen: error: unknown flower rose; choose from "
                                        "tiny\n")
+    assert not (tmp_path / "o").exists()
+
+
+def test_flowers_run_side_by_side_in_their_own_processes(tmp_path: Path, capsys) -> None:
+    """Two flowers in two worker processes: both pictures, the page in the flowers' order
+    whichever finished first, the same picture as a run in this process."""
+    other = _TINY.replace("§4.2", "§4.3").replace("#aa0000", "#0000aa")
+    examples = _examples(tmp_path, {"tiny.toml": _TINY, "other.toml": other})
+    out, alone = tmp_path / "out", tmp_path / "alone"
+    assert main(["gallery", "flowers", "--out", str(out), "--examples", str(examples),
+                 "--workers", "2"]) == 0
+    printed = capsys.readouterr().out
+    assert "2 flowers, 2 at a time" in printed and "[2/2]" in printed
+    page = (out / "index.html").read_text()
+    assert re.findall(r'<img src="([^"]+)"', page) == ["tiny/01-colour/out.png",
+                                                       "other/01-colour/out.png"]
+    assert main(["gallery", "flowers", "--out", str(alone), "--examples", str(examples),
+                 "--only", "tiny", "--workers", "1"]) == 0
+    assert ((out / "tiny" / "01-colour" / "out.png").read_bytes()
+            == (alone / "tiny" / "01-colour" / "out.png").read_bytes())
+
+
+def test_workers_below_one_are_refused(tmp_path: Path, capsys) -> None:
+    examples = _examples(tmp_path, {"tiny.toml": _TINY})
+    assert main(["gallery", "flowers", "--out", str(tmp_path / "o"), "--examples",
+                 str(examples), "--workers", "0"]) == 2
+    assert capsys.readouterr().err == "morphogen: error: --workers takes a number >= 1, got 0\n"
     assert not (tmp_path / "o").exists()
