@@ -79,17 +79,24 @@ class Monitor:
 
 def bad_species(u: Array, batched: bool) -> np.ndarray:
     """Species with a NaN, Inf or a value beyond :data:`OVERFLOW`, shape ``(B, S)`` (``B = 1``
-    for one state)."""
-    return np.asarray(_bad_flags(u, batched))
+    for one state); a NumPy state (the fused CPU step's) is checked by NumPy, without a copy into
+    XLA or its threads."""
+    if isinstance(u, np.ndarray):
+        return _bad(u, batched, np)
+    return np.asarray(_bad_compiled(u, batched))
+
+
+def _bad(u: Any, batched: bool, xp: Any) -> Any:
+    bad = ~xp.isfinite(u) | (xp.abs(u) > OVERFLOW)
+    flags = bad.any(axis=tuple(range(2 if batched else 1, u.ndim)))
+    return flags if batched else flags[None]
 
 
 @partial(jax.jit, static_argnames="batched")
-def _bad_flags(u: Array, batched: bool) -> Array:
+def _bad_compiled(u: Array, batched: bool) -> Array:
     """:func:`bad_species` as one compiled pass (op by op, a 256² state took about 1 ms a
     check, a sixth of a fused chunk's time)."""
-    bad = ~jnp.isfinite(u) | (jnp.abs(u) > OVERFLOW)
-    flags = bad.any(axis=tuple(range(2 if batched else 1, u.ndim)))
-    return flags if batched else flags[None]
+    return _bad(u, batched, jnp)
 
 
 class _Check(Monitor):

@@ -207,17 +207,22 @@ def grid_scale(u: Array, batched: bool) -> tuple[Array, Array]:
     smooth along some axis. Returns two arrays of shape ``(B, S)``. Compiled once per shape
     (op by op, each check of a run's first chunk compiled a dozen tiny programs).
     """
-    v = u if batched else u[None]
+    return _grid_scale(u if batched else u[None], jnp)
+
+
+def _grid_scale(v: Any, xp: Any) -> tuple[Any, Any]:
+    """:func:`grid_scale` of a batch ``v`` ``(B, S, *spatial)`` with the array module ``xp``
+    (``jax.numpy`` inside the compiled program, NumPy for a NumPy state)."""
     spatial = tuple(range(2, v.ndim))
     h = v
     for ax in spatial:
         n = h.shape[ax]
-        mid = jax.lax.slice_in_dim(h, 1, n - 1, axis=ax)
-        lo = jax.lax.slice_in_dim(h, 0, n - 2, axis=ax)
-        hi = jax.lax.slice_in_dim(h, 2, n, axis=ax)
+        cut = [slice(None)] * h.ndim
+        mid, lo, hi = (h[tuple(cut[:ax] + [slice(a, b)] + cut[ax + 1:])]
+                       for a, b in ((1, n - 1), (0, n - 2), (2, n)))
         h = (2.0 * mid - lo - hi) / 4.0
     dev = v - v.mean(axis=spatial, keepdims=True)
-    return jnp.sqrt(jnp.mean(h * h, axis=spatial)), jnp.sqrt(jnp.mean(dev * dev, axis=spatial))
+    return xp.sqrt(xp.mean(h * h, axis=spatial)), xp.sqrt(xp.mean(dev * dev, axis=spatial))
 
 
 def grid_scale_dominated(g: Array, dev: Array, scale: Array) -> Array:
@@ -246,12 +251,17 @@ def divergence_flags(
     the grid-scale RMS exceeds :data:`GRID_SCALE_RATIO` of the deviation RMS, is not round-off
     (``> 1e-4 scale``) and grew by :data:`GROWTH` since ``prev_grid``. All ``(B, S)``.
     """
-    peak = np.asarray(_peak(u, batched), np.float64)
+    v = u if batched else u[None]
+    if isinstance(u, np.ndarray):  # the fused CPU step's state: no copy into XLA, no threads
+        peak = np.abs(v).max(axis=tuple(range(2, v.ndim))).astype(np.float64)
+    else:
+        peak = np.asarray(_peak(u, batched), np.float64)
     out = peak > RANGE_FACTOR * scale
     if not on_grid:
         zeros = np.zeros_like(out)
         return out, zeros, np.zeros(out.shape)
-    g, dev = (np.asarray(a, np.float64) for a in grid_scale(u, batched))
+    stats = _grid_scale(v, np) if isinstance(u, np.ndarray) else grid_scale(u, batched)
+    g, dev = (np.asarray(a, np.float64) for a in stats)
     growing = grid_scale_dominated(g, dev, scale)
     if prev_grid is None:
         growing = np.zeros_like(growing)
