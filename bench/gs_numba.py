@@ -14,7 +14,9 @@ in the order of operations of morphogen's step (``domains/stencils.py``,
 ``models/library.py``, ``solvers/explicit.py``). Two buffers, swapped every step; each row is one
 loop over the interior columns with the neighbour rows and columns taken directly (no modulo; the
 wrapped row indices are chosen once per row and the two border columns are done apart), so LLVM
-vectorises the interior (16 floats a vector on AVX-512).
+vectorises the interior (16 floats a vector on AVX-512). The rows are loops in the step's own
+loop over rows: a function called per row (this loop's earlier form) ran at 1.7e9 cell-steps per
+CPU-second against 2.3e9.
 
 Same arithmetic as XLA on CPU, which contracts ``a * b + c`` into fused multiply-adds and runs
 with flush-to-zero and denormals-are-zero (a denormal result or input reads as 0):
@@ -63,24 +65,20 @@ def _cell(a, an, as_, b, bn, bs, ao, bo, x, xl, xr, du, dv, f, fk, dt):
 
 
 @numba.njit(cache=False, fastmath=FASTMATH, error_model="numpy", boundscheck=False)
-def _row(a, an, as_, b, bn, bs, ao, bo, du, dv, f, fk, dt):
-    w = a.shape[0]
-    _cell(a, an, as_, b, bn, bs, ao, bo, 0, w - 1, 1, du, dv, f, fk, dt)
-    for x in range(1, w - 1):
-        _cell(a, an, as_, b, bn, bs, ao, bo, x, x - 1, x + 1, du, dv, f, fk, dt)
-    _cell(a, an, as_, b, bn, bs, ao, bo, w - 1, w - 2, 0, du, dv, f, fk, dt)
-
-
-@numba.njit(cache=False, fastmath=FASTMATH, error_model="numpy", boundscheck=False)
 def _advance(cur, nxt, steps, du, dv, f, k, dt):
-    h = cur.shape[1]
+    h, w = cur.shape[1], cur.shape[2]
     fk = f + k
     for _ in range(steps):
         for y in range(h):
             yn = y - 1 if y > 0 else h - 1
             ys = y + 1 if y < h - 1 else 0
-            _row(cur[0, y], cur[0, yn], cur[0, ys], cur[1, y], cur[1, yn], cur[1, ys],
-                 nxt[0, y], nxt[1, y], du, dv, f, fk, dt)
+            a, an, as_ = cur[0, y], cur[0, yn], cur[0, ys]
+            b, bn, bs = cur[1, y], cur[1, yn], cur[1, ys]
+            ao, bo = nxt[0, y], nxt[1, y]
+            _cell(a, an, as_, b, bn, bs, ao, bo, 0, w - 1, 1, du, dv, f, fk, dt)
+            for x in range(1, w - 1):
+                _cell(a, an, as_, b, bn, bs, ao, bo, x, x - 1, x + 1, du, dv, f, fk, dt)
+            _cell(a, an, as_, b, bn, bs, ao, bo, w - 1, w - 2, 0, du, dv, f, fk, dt)
         cur, nxt = nxt, cur
     return cur
 

@@ -52,18 +52,19 @@ short the run; unset (or anything else): where it applies and the run has at lea
 
 MIN_WORK = 2**32
 """Cell-steps (cells × steps) from which a run takes the fused step by default (256² × 65 536
-steps). The fused step saves about 0.3 ns a cell-step on one core (Gray-Scott 256²: 1.3e9
-cell-steps per CPU-second against 0.9e9, ``bench/results/gs_single.json``), but a process pays
-for Numba's start (about 0.65 CPU-seconds measured through ``morphogen simulate``, the kernel
-loaded from disk) and once per kernel for its compile (about 0.8 s, 1.5 s for GenRD's
-110 parameters; kept on disk when the compile cache is on, :mod:`morphogen.util.compile_cache`):
-from 2³² cell-steps a run gains about 0.7 s even when it starts Numba."""
+steps). The fused step saves about 0.5 ns a cell-step on one core (Gray-Scott 256²: 2.2e9
+cell-steps per CPU-second through ``simulate`` against 1.05e9 on the JAX step,
+``bench/results/gs_single.json``), but a process pays for Numba's start (about 0.65
+CPU-seconds measured through ``morphogen simulate``, the kernel loaded from disk) and once per
+kernel for its compile (about 0.8 s, 1.5 s for GenRD's 110 parameters; kept on disk when the
+compile cache is on, :mod:`morphogen.util.compile_cache`): from 2³² cell-steps a run gains
+about 0.7 s even when it starts Numba and compiles its kernel."""
 
 MIN_MEMBER_WORK = 2**26
 """Cell-steps a member (cells × steps) from which a population takes the fused step by default
 (128² × 4 096 steps). A search evaluates generation after generation in one process, so Numba's
-start and the compile are paid once against about 0.3 ns a cell-step saved in every member of
-every generation (20 ms a member a generation from here)."""
+start and the compile are paid once against about 0.5 ns a cell-step saved in every member of
+every generation (30 ms a member a generation from here)."""
 
 _BINARY = {"add": "({} + {})", "sub": "({} - {})", "mul": "({} * {})", "div": "({} / {})",
            "max": "np.maximum({}, {})", "min": "np.minimum({}, {})", "pow": "np.power({}, {})",
@@ -150,8 +151,8 @@ def kernel_source(model: Model, names: Sequence[str], *, boundary: str, stencil:
     ``names``, in order (float32 ``(P,)``). Each step first fills the ghost columns (the
     opposite border column when periodic, the border's own value for no flux), so that every
     row is one loop over its cells that LLVM vectorises, with the model's cell code written
-    once. A model operation the kernel cannot write is a
-    :class:`~morphogen.errors.MorphogenError`.
+    once, inside the loop over rows (a function called per row cost a quarter of the time). A
+    model operation the kernel cannot write is a :class:`~morphogen.errors.MorphogenError`.
     """
     if boundary not in ("periodic", "neumann") or stencil not in (5, 9):
         raise MorphogenError(f"the fused step takes periodic or no-flux boundaries and 5- or "
@@ -187,32 +188,17 @@ def kernel_source(model: Model, names: Sequence[str], *, boundary: str, stencil:
             lo, hi = consts.add(clamp[0]), consts.add(clamp[1])
             update.append(f"v{i} = np.minimum(np.maximum(v{i}, {lo}), {hi})")
         update.append(f"ro{i}[x] = v{i}")
-    rows = ", ".join(f"rc{i}, rn{i}, rs{i}" for i in range(s))
-    outs_ = ", ".join(f"ro{i}" for i in range(s))
     periodic = boundary == "periodic"
     west, east = ("w", "1") if periodic else ("1", "w")
     north, south = ("h - 1", "0") if periodic else ("0", "h - 1")
-    views = ", ".join(f"cur[{i}, y], cur[{i}, yn], cur[{i}, ys_]" for i in range(s))
-    targets = ", ".join(f"nxt[{i}, y]" for i in range(s))
     lines = [
-        "@njit",
-        f"def row({rows}, {outs_}, xs, yc, tc, dt, qs):",
-        "    w = rc0.shape[0] - 2",
-        *(f"    q{i} = qs[{i}]" for i in range(len(names))),
-        "    for x in range(1, w + 1):",
-        "        xl = x - 1",
-        "        xr = x + 1",
-        "        xc = xs[x]",
-        *(f"        s{i} = rc{i}[x]" for i in range(s)),
-        *("        " + line.strip() for line in [*laps, *em.lines, *update]),
-        "",
-        "",
         "@njit",
         "def advance(cur, nxt, steps, tc, dt, xs, ys, qs):",
         "    mode = stmxcsr()",
         "    ldmxcsr(np.uint32(mode | FTZ_DAZ))",
         "    h = cur.shape[1]",
         "    w = cur.shape[2] - 2",
+        *(f"    q{i} = qs[{i}]" for i in range(len(names))),
         "    for _ in range(steps):",
         "        for y in range(h):",
         *(f"            cur[{i}, y, 0] = cur[{i}, y, {west}]" for i in range(s)),
@@ -220,7 +206,16 @@ def kernel_source(model: Model, names: Sequence[str], *, boundary: str, stencil:
         "        for y in range(h):",
         f"            yn = y - 1 if y > 0 else {north}",
         f"            ys_ = y + 1 if y < h - 1 else {south}",
-        f"            row({views}, {targets}, xs, ys[y], tc, dt, qs)",
+        "            yc = ys[y]",
+        *(f"            {line}" for i in range(s) for line in (
+            f"rc{i} = cur[{i}, y]", f"rn{i} = cur[{i}, yn]", f"rs{i} = cur[{i}, ys_]",
+            f"ro{i} = nxt[{i}, y]")),
+        "            for x in range(1, w + 1):",
+        "                xl = x - 1",
+        "                xr = x + 1",
+        "                xc = xs[x]",
+        *(f"                s{i} = rc{i}[x]" for i in range(s)),
+        *("                " + line.strip() for line in [*laps, *em.lines, *update]),
         "        cur, nxt = nxt, cur",
         "        tc = tc + dt",
         "    ldmxcsr(mode)",

@@ -116,7 +116,7 @@ def test_no_user_text_reaches_the_compiler(monkeypatch, taken):
                   reaction=_hostile_reaction, diffusion=_hostile_diffusion)
     code = fused.kernel_source(model, list(model.params), boundary="periodic", stencil=5,
                                dx=1.0, clamp=None)
-    allowed = {"def", "for", "in", "range", "if", "else", "return", "np", "njit", "row",
+    allowed = {"def", "for", "in", "range", "if", "else", "return", "np", "njit",
                "advance", "advance_all", "cur", "nxt", "steps", "tc", "dt", "xs", "ys", "qs",
                "xc", "yc", "m", "out", "clock", "x", "xl", "xr", "i", "w", "h", "y", "yn",
                "ys_", "shape", "_", "maximum",
