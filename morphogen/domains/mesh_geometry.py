@@ -75,9 +75,14 @@ def validate(vertices: np.ndarray, faces: np.ndarray, *, source: str = "mesh") -
 
 
 def _unique_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Undirected edges ``(E, 2)`` (sorted pairs) and how many faces use each."""
+    """Undirected edges ``(E, 2)`` (sorted pairs, in lexicographic order) and how many faces use
+    each. Each pair ``(a, b)`` is sorted as the one number ``a·V + b`` (``V`` past the largest
+    index), an order-preserving code: a sort of numbers is about ten times faster than
+    ``np.unique(axis=0)`` on pairs, which a mesh pays every time it is built."""
     edges = np.sort(np.concatenate([faces[:, [1, 2]], faces[:, [2, 0]], faces[:, [0, 1]]]), axis=1)
-    return np.unique(edges, axis=0, return_counts=True)
+    n = np.int64(edges.max()) + 1 if edges.size else np.int64(1)
+    codes, counts = np.unique(edges[:, 0].astype(np.int64) * n + edges[:, 1], return_counts=True)
+    return np.stack([codes // n, codes % n], axis=1).astype(edges.dtype), counts
 
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
