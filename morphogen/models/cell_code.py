@@ -40,7 +40,8 @@ class Dialect:
 
     Attributes:
         binary, unary: templates by primitive name.
-        integer_pow: the template of ``x**n`` for an integer ``n``.
+        zero, one: the float constants 0 and 1 as source text (for ``x**n``, written as
+            repeated multiplication by :func:`integer_pow`).
         literal: a float constant as source text (float32).
         true, false: the boolean constants.
         declare: ``declare(kind, name, expr)``, the line that binds a temporary (``kind`` is
@@ -52,7 +53,8 @@ class Dialect:
 
     binary: Mapping[str, str]
     unary: Mapping[str, str]
-    integer_pow: Callable[[int], str]
+    zero: str
+    one: str
     literal: Callable[[float], str]
     true: str
     false: str
@@ -61,6 +63,15 @@ class Dialect:
     clamp: str
     to_float: str
     to_bool: str
+
+
+def integer_pow(n: int, dialect: Dialect) -> str:
+    """The template of ``x**n`` for an integer ``n``: repeated multiplication, as XLA computes a
+    small integer power; ``x**0`` is ``x * 0 + 1`` (NaN stays NaN)."""
+    if n == 0:
+        return f"({{0}} * {dialect.zero} + {dialect.one})"
+    body = " * ".join(["{0}"] * abs(n))
+    return f"({body})" if n > 0 else f"({dialect.one} / ({body}))"
 
 
 class Emitter:
@@ -132,7 +143,7 @@ class Emitter:
         if name in d.unary:
             return [self.elementwise(d.unary[name], ins, kind)]
         if name == "integer_pow":
-            return [self.elementwise(d.integer_pow(int(p["y"])), ins, kind)]
+            return [self.elementwise(integer_pow(int(p["y"]), d), ins, kind)]
         if name in TRANSPARENT:
             return ins
         if name == "convert_element_type":

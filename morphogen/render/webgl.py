@@ -65,16 +65,8 @@ def glsl_float(value: float) -> str:
     return text if ("." in text or "e" in text) else text + ".0"
 
 
-def _integer_pow(n: int) -> str:
-    """``x**n`` as repeated multiplication (what XLA does for a small integer power)."""
-    if n == 0:
-        return "(1.0 + 0.0 * {0})"
-    body = " * ".join(["{0}"] * abs(n))
-    return f"({body})" if n > 0 else f"(1.0 / ({body}))"
-
-
 GLSL = Dialect(
-    binary=_BINARY, unary=_UNARY, integer_pow=_integer_pow, literal=glsl_float, true="true",
+    binary=_BINARY, unary=_UNARY, zero="0.0", one="1.0", literal=glsl_float, true="true",
     false="false", declare=_declare, select="({} ? {} : {})", clamp="clamp({1}, {0}, {2})",
     to_float="({} ? 1.0 : 0.0)", to_bool="({} != 0.0)")
 """How GLSL ES 3.00 writes each operation."""

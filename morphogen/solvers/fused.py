@@ -80,20 +80,12 @@ _UNARY = {"neg": "(-{})", "exp": "np.exp({})", "log": "np.log({})", "sqrt": "np.
           "sinh": "np.sinh({})", "cosh": "np.cosh({})"}
 
 
-def _integer_pow(n: int) -> str:
-    """``x**n`` as repeated multiplication (``k1`` is the constant 1)."""
-    if n == 0:
-        return "({0} * k0 + k1)"
-    body = " * ".join(["{0}"] * abs(n))
-    return f"({body})" if n > 0 else f"(k1 / ({body}))"
-
-
 def _declare(kind: str, name: str, expr: str) -> str:
     return f"    {name} = {expr}"
 
 
 NUMBA = Dialect(
-    binary=_BINARY, unary=_UNARY, integer_pow=_integer_pow, literal=repr, true="True",
+    binary=_BINARY, unary=_UNARY, zero="k0", one="k1", literal=repr, true="True",
     false="False", declare=_declare, select="({1} if {0} else {2})",
     clamp="np.minimum(np.maximum({1}, {0}), {2})", to_float="(k1 if {} else k0)",
     to_bool="({} != k0)")
