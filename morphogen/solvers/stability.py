@@ -235,11 +235,15 @@ def grid_scale_dominated(g: Array, dev: Array, scale: Array) -> Array:
     return (g > GRID_SCALE_RATIO * dev) & (g > 1e-4 * scale)
 
 
+def _peak(v: Any, xp: Any) -> Any:
+    """``max |v|`` per member and species of a batch ``v``, shape ``(B, S)``."""
+    return xp.max(xp.abs(v), axis=tuple(range(2, v.ndim)))
+
+
 @partial(jax.jit, static_argnames="batched")
-def _peak(u: Array, batched: bool) -> Array:
-    """``max |u|`` per member and species, shape ``(B, S)``, compiled once per shape."""
-    v = u if batched else u[None]
-    return jnp.max(jnp.abs(v), axis=tuple(range(2, v.ndim)))
+def _peak_compiled(u: Array, batched: bool) -> Array:
+    """:func:`_peak` of a JAX state, compiled once per shape."""
+    return _peak(u if batched else u[None], jnp)
 
 
 def divergence_flags(
@@ -251,16 +255,14 @@ def divergence_flags(
     the grid-scale RMS exceeds :data:`GRID_SCALE_RATIO` of the deviation RMS, is not round-off
     (``> 1e-4 scale``) and grew by :data:`GROWTH` since ``prev_grid``. All ``(B, S)``.
     """
+    host = isinstance(u, np.ndarray)  # the fused CPU step's state: no copy into XLA, no threads
     v = u if batched else u[None]
-    if isinstance(u, np.ndarray):  # the fused CPU step's state: no copy into XLA, no threads
-        peak = np.abs(v).max(axis=tuple(range(2, v.ndim))).astype(np.float64)
-    else:
-        peak = np.asarray(_peak(u, batched), np.float64)
+    peak = np.asarray(_peak(v, np) if host else _peak_compiled(u, batched), np.float64)
     out = peak > RANGE_FACTOR * scale
     if not on_grid:
         zeros = np.zeros_like(out)
         return out, zeros, np.zeros(out.shape)
-    stats = _grid_scale(v, np) if isinstance(u, np.ndarray) else grid_scale(u, batched)
+    stats = _grid_scale(v, np) if host else grid_scale(u, batched)
     g, dev = (np.asarray(a, np.float64) for a in stats)
     growing = grid_scale_dominated(g, dev, scale)
     if prev_grid is None:
