@@ -11,7 +11,7 @@
 
 On a CPU, :func:`simulate` advances a long explicit-Euler run of one state on a 2D grid by the
 fused step of :mod:`morphogen.solvers.fused` (one Numba loop generated from the model's jaxpr,
-1.4x the JAX step per core on Gray-Scott 256²) where it computes what the JAX step does, within
+2.1x the JAX step per core on Gray-Scott 256²) where it computes what the JAX step does, within
 float32 rounding; the checks between chunks and the replay that names a blow-up's first step
 are the same. ``MORPHOGEN_FUSED=off`` keeps every run on the JAX path.
 """
