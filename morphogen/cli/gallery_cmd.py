@@ -48,14 +48,15 @@ def _picture(flower_dir: Path) -> Path:
     raise MorphogenError(f"{flower_dir} has no stage picture (out.png)")
 
 
-def _run_flower(path: Path, out_dir: Path, resume: bool) -> tuple[str | None, str, float]:
-    """One flower's pipeline into ``out_dir``: its picture's path relative to the gallery (or
-    ``None`` and the one-line error), and the seconds it took. Runs in a worker process too."""
+def _run_flower(pipeline: dict, out_dir: Path, resume: bool) -> tuple[str | None, str, float]:
+    """One flower's loaded pipeline into ``out_dir``: its picture's path relative to the gallery
+    (or ``None`` and the one-line error), and the seconds it took. Runs in a worker process
+    too."""
     from morphogen.flowers.pipeline import run_pipeline
 
     started = time.perf_counter()
     try:
-        run_pipeline(path, out_dir, resume=resume)
+        run_pipeline(pipeline, out_dir, resume=resume)
         png = _picture(out_dir)
     except MorphogenError as exc:
         return None, str(exc), time.perf_counter() - started
@@ -88,16 +89,18 @@ def run_gallery(out: str | Path, *, only: list[str] | None = None, examples: Pat
     flowers = _select(find_flowers(Path(examples)), only)
     if not flowers:
         raise MorphogenError(f"no flower pipelines in {Path(examples) / 'flowers'}")
+    pipelines = {}
     for flower in flowers:  # every file checked before anything is made
         try:
-            load_pipeline(flower.path)
+            pipelines[flower.name] = load_pipeline(flower.path)
         except MorphogenError as exc:
             raise MorphogenError(f"{flower.name} ({flower.path}): {exc}") from None
     check_writable_dir(out)
     out_dir = ensure_writable_dir(out)
     workers = default_workers(len(flowers)) if workers is None else workers
     results: dict[str, tuple[str | None, str, float]] = {}
-    for k, (flower, result) in enumerate(_run_all(flowers, out_dir, resume, workers), 1):
+    for k, (flower, result) in enumerate(_run_all(flowers, pipelines, out_dir, resume, workers),
+                                         1):
         png, error, seconds = results[flower.name] = result
         head = f"[{k}/{len(flowers)}] {flower.caption}: {flower.path.name}"
         if png is None:
@@ -113,13 +116,14 @@ def run_gallery(out: str | Path, *, only: list[str] | None = None, examples: Pat
     return page, errors
 
 
-def _run_all(flowers: list[Flower], out_dir: Path, resume: bool, workers: int
-             ) -> Iterator[tuple[Flower, tuple[str | None, str, float]]]:
-    """Each flower with its result (:func:`_run_flower`), as it finishes."""
+def _run_all(flowers: list[Flower], pipelines: dict[str, dict], out_dir: Path, resume: bool,
+             workers: int) -> Iterator[tuple[Flower, tuple[str | None, str, float]]]:
+    """Each flower with its result (:func:`_run_flower` of its loaded pipeline), as it
+    finishes."""
     if workers <= 1:
         for flower in flowers:
             print(f"{flower.caption}: {flower.path.name} ...", flush=True)
-            yield flower, _run_flower(flower.path, out_dir / flower.name, resume)
+            yield flower, _run_flower(pipelines[flower.name], out_dir / flower.name, resume)
         return
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -131,7 +135,7 @@ def _run_all(flowers: list[Flower], out_dir: Path, resume: bool, workers: int
     os.environ["XLA_FLAGS"] = f"{saved or ''} {SINGLE_THREAD}".strip()
     pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
     try:
-        running = {pool.submit(_run_flower, f.path, out_dir / f.name, resume): f
+        running = {pool.submit(_run_flower, pipelines[f.name], out_dir / f.name, resume): f
                    for f in flowers}
         print(f"{len(flowers)} flowers, {workers} at a time", flush=True)
         for future in as_completed(running):
