@@ -2,14 +2,15 @@
 figures.
 
     python docs/images/networks/make_figures.py RUNS_DIR [--runs N] [--workers W] [--plot-only]
-        [--experiments 1 2] [--tag TAG] [--partial]
+        [--experiments 1 2] [--tag TAG] [--partial] [--draw decade|log-uniform]
 
 Experiment 1 (§4.1, rates of the Table-2 network) and Experiment 2 (§4.2, n = 3, m ≤ 12,
 networks evolved), ``N`` runs each (seeds 1, 2, …; default :data:`RUNS`), at the full Table-1
 budget :data:`BUDGET` and evaluation :data:`EVAL` (150 individuals, 100 generations, 32²,
 Δt = 0.1, 10 rounds from t = 2000 every 200, tournament 2; the default fixed-point start,
 stationary grade in stage two (Experiment 1: graded, :data:`EVALS`), checkerboards invalid,
-Experiment 1's rates drawn within a decade of Table 2's:
+Experiment 1's rates drawn within a decade of Table 2's, or with ``--draw log-uniform`` over
+every exponent, the seed's other reading, under the default stationary grade:
 docs/networks.md). ``--experiments`` picks which to run and draw. Run folders go to
 ``RUNS_DIR/exp1-seedS`` and ``RUNS_DIR/exp2-seedS``; finished runs are not run again and
 unfinished ones are resumed. ``W`` runs go at once, each in its own single-threaded process (one
@@ -74,19 +75,26 @@ Experiment 2's use the default, the stationary grade (docs/networks.md)."""
 EVAL = EVALS[2]
 
 
-def experiment(number: int) -> tuple[NetworkSpec, object, Operators]:
-    """Spec, template genome and operators of Experiment 1 (rates) or 2 (network)."""
+def evaluation(number: int, draw: str = "decade") -> Evaluation:
+    """The evaluation of a run: :data:`EVALS`, except that Experiment 1 with the log-uniform
+    draw, whose first populations hold no spots, takes the default (stationary) grade."""
+    return EVAL if draw == "log-uniform" else EVALS[number]
+
+
+def experiment(number: int, draw: str = "decade") -> tuple[NetworkSpec, object, Operators]:
+    """Spec, template genome and operators of Experiment 1 (rates, initial rates drawn by
+    ``draw``) or 2 (network)."""
     if number == 1:
         spec = table2_spec()
-        return spec, table2_genome(spec), Operators(mode="rates", draw="decade")
+        return spec, table2_genome(spec), Operators(mode="rates", draw=draw)
     spec = NetworkSpec(("A", "B", "C"), 12, (0.005, 0.2, 0.0), fixed=(0, 1),
                        fixed_rates=(0.0, 0.0))
     return spec, make_genome(spec, [0.0] * spec.m_max), Operators(mode="network")
 
 
-def one_run(out: Path, number: int, seed: int) -> str:
+def one_run(out: Path, number: int, seed: int, draw: str = "decade") -> str:
     """Run (or resume) one experiment run, logging every generation with its times."""
-    spec, template, ops = experiment(number)
+    spec, template, ops = experiment(number, draw)
     done = completed(out)
     clock = [time.process_time(), time.perf_counter()]
     out.mkdir(parents=True, exist_ok=True)
@@ -99,20 +107,21 @@ def one_run(out: Path, number: int, seed: int) -> str:
             f.write(line + "\n")
         print(f"{out.name}: {line}", flush=True)
 
-    run(spec, template, out, ops=ops, ev=EVALS[number], seed=seed, resume=done > 0, log=log,
+    run(spec, template, out, ops=ops, ev=evaluation(number, draw), seed=seed, resume=done > 0,
+        log=log,
         **BUDGET)
     return out.name
 
 
-def _one_run(args: tuple[Path, int, int]) -> str:
+def _one_run(args: tuple[Path, int, int, str]) -> str:
     return one_run(*args)
 
 
-def run_all(root: Path, runs: int, workers: int, experiments: tuple[int, ...] = (1, 2)
-            ) -> None:
+def run_all(root: Path, runs: int, workers: int, experiments: tuple[int, ...] = (1, 2),
+            draw: str = "decade") -> None:
     """Every run of the experiments that is not finished yet, ``workers`` at a time (the
     longer Experiment-2 runs first, so the workers finish together)."""
-    todo = [(root / f"exp{number}-seed{seed}", number, seed)
+    todo = [(root / f"exp{number}-seed{seed}", number, seed, draw)
             for seed in range(1, runs + 1) for number in (2, 1) if number in experiments
             if completed(root / f"exp{number}-seed{seed}") < BUDGET["generations"]]
     if workers <= 1:
@@ -316,10 +325,12 @@ if __name__ == "__main__":
     parser.add_argument("--tag", default="")
     parser.add_argument("--partial", action="store_true",
                         help="draw unfinished runs too (their generations so far)")
+    parser.add_argument("--draw", choices=("decade", "log-uniform"), default="decade",
+                        help="Experiment 1's initial rates (a run resumes only with its own)")
     args = parser.parse_args()
     TAG[0] = args.tag
     PARTIAL[0] = args.partial
     if not args.plot_only:
         os.environ.setdefault("XLA_FLAGS", SINGLE_THREAD)
-        run_all(args.runs_dir, args.runs, args.workers, tuple(args.experiments))
+        run_all(args.runs_dir, args.runs, args.workers, tuple(args.experiments), args.draw)
     make_figures(args.runs_dir, tuple(args.experiments))
