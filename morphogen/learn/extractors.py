@@ -9,12 +9,13 @@ from morphogen.errors import MorphogenError
 from morphogen.learn import vgg
 from morphogen.learn.features import RandomFeatures, SpectrumFeatures
 
-EXTRACTORS = ("random", "spectrum", "vgg")
+EXTRACTORS = ("random", "spectrum", "vgg", "vgg-sw")
 """Names accepted by :func:`make_extractor`."""
 
 
 def make_extractor(name: str, vgg_weights: str | None = None) -> Any:
-    """An extractor by name; ``vgg`` uses ``vgg_weights`` or weights found offline.
+    """An extractor by name; ``vgg`` (Gram matrices) and ``vgg-sw`` (sliced optimal transport,
+    :mod:`morphogen.learn.vgg`) use ``vgg_weights`` or weights found offline.
 
     Raises:
         MorphogenError: unknown name, or VGG16 weights not available.
@@ -23,7 +24,7 @@ def make_extractor(name: str, vgg_weights: str | None = None) -> Any:
         return RandomFeatures()
     if name == "spectrum":
         return SpectrumFeatures()
-    if name == "vgg":
+    if name in ("vgg", "vgg-sw"):
         path = vgg_weights or vgg.find_vgg_weights()
         if path is None:
             raise MorphogenError(
@@ -32,5 +33,5 @@ def make_extractor(name: str, vgg_weights: str | None = None) -> Any:
                 "--vgg-weights FILE.npz; or use --features random"
             )
         vgg.load_vgg_weights(path)  # read and checked now, before any output is made
-        return vgg.VGGFeatures(str(path))
+        return vgg.VGGFeatures(str(path), name, sliced=name == "vgg-sw")
     raise MorphogenError(f"unknown feature extractor {name!r}; use one of {', '.join(EXTRACTORS)}")

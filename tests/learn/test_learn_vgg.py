@@ -38,6 +38,40 @@ def test_user_npz_weights_give_five_gram_descriptors(tmp_path):
     assert np.all(np.isfinite(values)) and values[0] < values[1]
 
 
+def test_sliced_descriptors_are_the_quantiles_of_projected_activations(tmp_path):
+    """vgg-sw: colour quantiles, then per style layer the quantiles of the activations
+    projected on fixed unit directions; a periodic shift by whole cells of the coarsest
+    level (16 pixels: four 2x2 poolings) leaves them unchanged (a distribution of
+    activations, not their places), and the distance of two descriptors is
+    the mean squared difference of sorted samples, the sliced 2-Wasserstein distance."""
+    extractor = vgg.VGGFeatures(small_vgg(tmp_path / "vgg.npz"), "vgg-sw", sliced=True)
+    weights = extractor.init()
+    img = synthetic_texture("dots", 48)
+    batch = jnp.asarray(np.stack([img, np.roll(img, (16, 32), (0, 1))]))
+    out = [np.asarray(d) for d in extractor.apply(weights, batch, True)]
+    q = vgg.SLICE_QUANTILES
+    assert [d.shape for d in out] == [(2, q, 3), (2, q, 4), (2, q, 6), (2, q, 8), (2, q, 10),
+                                      (2, q, 12)]
+    pick = ((np.arange(q) + 0.5) / q * 48 * 48).astype(int)
+    np.testing.assert_array_equal(out[0][0], np.sort(img.reshape(-1, 3), axis=0)[pick])
+    for d in out:
+        np.testing.assert_allclose(d[0], d[1], rtol=1e-5, atol=1e-5)
+    for dirs in weights["dirs"]:
+        np.testing.assert_allclose(np.linalg.norm(np.asarray(dirs), axis=0), 1.0, rtol=1e-6)
+    # the same directions every time (NumPy, fixed seed)
+    np.testing.assert_array_equal(np.asarray(extractor.init()["dirs"][2]),
+                                  np.asarray(weights["dirs"][2]))
+
+
+@pytest.mark.slow
+def test_sliced_loss_ranks_the_own_texture_first(tmp_path):
+    extractor = extractors.make_extractor("vgg-sw", small_vgg(tmp_path / "vgg.npz"))
+    loss = texture_loss(synthetic_texture("dots", 48), extractor, 4)
+    values = np.asarray(loss(jnp.asarray(np.stack([synthetic_texture("dots", 48),
+                                                    synthetic_texture("stripes", 48)]))))
+    assert np.all(np.isfinite(values)) and values[0] < 0.5 * values[1]
+
+
 def test_weights_that_do_not_chain_are_refused(tmp_path):
     path = small_vgg(tmp_path / "bad.npz", widths=(4, 5) + (6,) * 9)
     data = dict(np.load(path))
