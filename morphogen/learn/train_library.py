@@ -3,7 +3,7 @@
 .. code-block:: text
 
     python -m morphogen.learn.train_library [--only NAME ...] [--runs DIR] [--recipe seed]
-        [--base FILE|shipped|none] [--iterations N] [--resume] [--ship DIR]
+        [--base FILE|shipped|none] [--iterations N] [--resume] [--ship DIR] [--features NAME]
 
 trains one rule per target of :data:`TARGETS`, one after the other, on the synthetic textures
 of :func:`morphogen.learn.textures.synthetic_texture` (generated here, nothing downloaded), and
@@ -51,6 +51,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from morphogen.errors import MorphogenError
+from morphogen.learn.extractors import EXTRACTORS
 from morphogen.learn.session import load_checkpoint, new_run, save_model, train
 from morphogen.learn.textures import synthetic_texture
 from morphogen.learn.train import TrainConfig, TrainState, optimizer, preset
@@ -255,6 +256,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="continue RUNS/NAME/checkpoint.npz (needs --runs)")
     parser.add_argument("--learning-rate", type=float, help="replace the recipe's")
     parser.add_argument("--size", type=int, help="replace the recipe's training torus side")
+    parser.add_argument("--features", choices=EXTRACTORS,
+                        help="replace the recipe's texture descriptors (docs/neural-rd.md)")
     parser.add_argument("--schedule", type=int, nargs="+", metavar="N",
                         help="replace the recipe's iterations and learning-rate drops: "
                         "ITERATIONS [DROP ...]")
@@ -267,6 +270,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             config = replace(config, learning_rate=args.learning_rate)
         if args.size:
             config = replace(config, size=args.size)
+        if args.features:
+            config = replace(config, features=args.features)
         if args.schedule:
             config = replace(config, iterations=args.schedule[0],
                              decay_at=tuple(args.schedule[1:]))
