@@ -2,7 +2,7 @@
 figures.
 
     python docs/images/networks/make_figures.py RUNS_DIR [--runs N] [--workers W] [--plot-only]
-        [--experiments 1 2] [--tag TAG] [--partial] [--draw decade|log-uniform]
+        [--experiments 1 2] [--tag TAG] [--partial] [--draw decade|log-uniform] [--seeds S ...]
 
 Experiment 1 (§4.1, rates of the Table-2 network) and Experiment 2 (§4.2, n = 3, m ≤ 12,
 networks evolved), ``N`` runs each (seeds 1, 2, …; default :data:`RUNS`), at the full Table-1
@@ -117,12 +117,13 @@ def _one_run(args: tuple[Path, int, int, str]) -> str:
     return one_run(*args)
 
 
-def run_all(root: Path, runs: int, workers: int, experiments: tuple[int, ...] = (1, 2),
+def run_all(root: Path, seeds: list[int], workers: int, experiments: tuple[int, ...] = (1, 2),
             draw: str = "decade") -> None:
-    """Every run of the experiments that is not finished yet, ``workers`` at a time (the
-    longer Experiment-2 runs first, so the workers finish together)."""
+    """Every run of the experiments with these seeds that is not finished yet, in order,
+    ``workers`` at a time (the longer Experiment-2 runs first, so the workers finish
+    together)."""
     todo = [(root / f"exp{number}-seed{seed}", number, seed, draw)
-            for seed in range(1, runs + 1) for number in (2, 1) if number in experiments
+            for seed in seeds for number in (2, 1) if number in experiments
             if completed(root / f"exp{number}-seed{seed}") < BUDGET["generations"]]
     if workers <= 1:
         for task in todo:
@@ -325,6 +326,9 @@ if __name__ == "__main__":
     parser.add_argument("--tag", default="")
     parser.add_argument("--partial", action="store_true",
                         help="draw unfinished runs too (their generations so far)")
+    parser.add_argument("--seeds", type=int, nargs="+", metavar="S",
+                        help="run these seeds, in this order, instead of 1 .. --runs (a "
+                        "second process on the same folder takes other seeds)")
     parser.add_argument("--draw", choices=("decade", "log-uniform"), default="decade",
                         help="Experiment 1's initial rates (a run resumes only with its own)")
     args = parser.parse_args()
@@ -332,5 +336,6 @@ if __name__ == "__main__":
     PARTIAL[0] = args.partial
     if not args.plot_only:
         os.environ.setdefault("XLA_FLAGS", SINGLE_THREAD)
-        run_all(args.runs_dir, args.runs, args.workers, tuple(args.experiments), args.draw)
+        seeds = args.seeds or list(range(1, args.runs + 1))
+        run_all(args.runs_dir, seeds, args.workers, tuple(args.experiments), args.draw)
     make_figures(args.runs_dir, tuple(args.experiments))
