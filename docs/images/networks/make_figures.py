@@ -19,7 +19,9 @@ seconds are appended to ``RUNS_DIR/<run>/times.txt``.
 
 Then the figures: best fitness per generation, one curve per run (the seed's figs. 3 and 5),
 the best pattern of each experiment and of the hand-made network as A/B/C heat maps with colour
-bars (figs. 1, 4, 6), and the best Experiment-2 network's reaction table next to its drawing,
+bars (figs. 1, 4, 6), the best Experiment-2 network's reaction table next to its drawing, and
+every Experiment-2 run past 256 as its pattern beside its network (figs. 6 and 7,
+``runs_exp2_TAG.png``, with the correlation of A and C that §4.2 reads),
 each PNG named with ``--tag`` (``fitness_exp1_TAG.png``; none for the earlier literal-reading
 runs' figures); an experiment without a finished run is skipped. ``--partial`` draws unfinished
 runs too (a run stopped before its last generation: its curve ends there, its legend names the
@@ -234,34 +236,92 @@ def best_genome(root: Path, number: int) -> tuple[Genome, float, str]:
     return best
 
 
-def pattern_figure(genome: Genome, spec: NetworkSpec, name: str, title: str) -> float:
+def pattern_figure(genome: Genome, spec: NetworkSpec, name: str, title: str
+                   ) -> tuple[float, float]:
     """A/B/C heat maps with colour bars of ``genome``'s state at the last evaluation round
-    (figs. 1, 4, 6), from the shared initial state of key 0; returns its fitness there."""
-    u0 = initial_state(jax.random.key(0), spec, EVAL)
-    fitness, states = evaluate(stack([genome]), u0, spec, EVAL)
+    (figs. 1, 4, 6), from the shared initial state of key 0; returns its fitness there and
+    :func:`catalyst_correlation`."""
+    fitness, states = _last_round(genome, spec)
     fig = Figure(figsize=(9.6, 3.2), dpi=120)
     for i, species in enumerate(spec.species):
-        ax = fig.add_subplot(1, spec.n, i + 1)
-        field = states[0, i]
-        # the scale runs from the field's min to its max (centred on the mean it clipped the
-        # spots' tops and showed negative values no cell had); a uniform field shows uniform
-        mid, lo, hi = float(field.mean()), float(field.min()), float(field.max())
-        flat = (hi - lo) / 2 < 5e-4 * max(abs(mid), 1.0)
-        if flat:
-            lo, hi = mid - 5e-4 * max(abs(mid), 1.0), mid + 5e-4 * max(abs(mid), 1.0)
-        im = ax.imshow(field, cmap="viridis", interpolation="nearest", vmin=lo, vmax=hi)
-        bar = fig.colorbar(im, ax=ax, shrink=0.8)
-        bar.formatter = matplotlib.ticker.ScalarFormatter(useOffset=False)
-        bar.update_ticks()
-        ax.set_title(f"{species} (uniform, {mid:.4g})" if flat else species)
-        ax.set_xticks([])
-        ax.set_yticks([])
+        _field_panel(fig, fig.add_subplot(1, spec.n, i + 1), states[0, i], species)
     t = EVAL.t_start + (EVAL.rounds - 1) * EVAL.interval
     fig.suptitle(f"{title}: t = {t:g}, fitness {fitness[0]:.1f} of {EVAL.size ** 2}",
                  fontsize=10)
     fig.tight_layout()
     fig.savefig(_png(name))
-    return float(fitness[0])
+    return float(fitness[0]), catalyst_correlation(states)
+
+
+def _last_round(genome: Genome, spec: NetworkSpec) -> tuple[np.ndarray, np.ndarray]:
+    """Fitness ``(1,)`` and state ``(1, n, H, W)`` of ``genome`` at the last evaluation round,
+    from the shared initial state of key 0."""
+    u0 = initial_state(jax.random.key(0), spec, EVAL)
+    fitness, states = evaluate(stack([genome]), u0, spec, EVAL)
+    return np.asarray(fitness), np.asarray(states)
+
+
+def _field_panel(fig: Figure, ax, field: np.ndarray, species: str) -> None:
+    """One species' heat map with its colour bar."""
+    # the scale runs from the field's min to its max (centred on the mean it clipped the
+    # spots' tops and showed negative values no cell had); a uniform field shows uniform
+    mid, lo, hi = float(field.mean()), float(field.min()), float(field.max())
+    flat = (hi - lo) / 2 < 5e-4 * max(abs(mid), 1.0)
+    if flat:
+        lo, hi = mid - 5e-4 * max(abs(mid), 1.0), mid + 5e-4 * max(abs(mid), 1.0)
+    im = ax.imshow(field, cmap="viridis", interpolation="nearest", vmin=lo, vmax=hi)
+    bar = fig.colorbar(im, ax=ax, shrink=0.8)
+    bar.formatter = matplotlib.ticker.ScalarFormatter(useOffset=False)
+    bar.update_ticks()
+    ax.set_title(f"{species} (uniform, {mid:.4g})" if flat else species)
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
+def catalyst_correlation(states: np.ndarray) -> float:
+    """Pearson correlation of A and C over the grid (§4.2: in the evolved networks "the peaks
+    of C now coincide with those of A", where the hand-made network's C is consumed under A's
+    peaks); NaN where either field is flat."""
+    a, c = (np.asarray(states[0, i], np.float64).ravel() for i in (0, 2))
+    if a.std() == 0 or c.std() == 0:
+        return float("nan")
+    return float(np.corrcoef(a, c)[0, 1])
+
+
+def runs_figure(root: Path) -> None:
+    """Figs. 6 and 7 for every finished Experiment-2 run whose best passed 256: per run, the
+    A/B/C heat maps of its last generation's fittest genome (key-0 start, last round) and the
+    drawing of its evolvable reactions."""
+    spec = experiment(2)[0]
+    rows = []
+    for folder in finished(root, 2):
+        pop, history, _, _ = load_state(folder / "state.npz")
+        i = int(np.argmax(history[-1]))
+        if history[-1][i] > 256:
+            rows.append((folder.name, Genome(*(np.asarray(x)[i] for x in pop))))
+    if not rows:
+        return
+    fig = Figure(figsize=(13.0, 2.9 * len(rows)), dpi=100)
+    for r, (name, genome) in enumerate(rows):
+        fitness, states = _last_round(genome, spec)
+        for j, species in enumerate(spec.species):
+            _field_panel(fig, fig.add_subplot(len(rows), 4, 4 * r + j + 1), states[0, j],
+                         f"{name}: {species}" if j == 0 else species)
+        net = genome_network(genome, spec, name=name)
+        keep = [k for k, rid in enumerate(net.reaction_ids)
+                if not rid.startswith(("inflow_", "decay_"))]
+        ax = fig.add_subplot(len(rows), 4, 4 * r + 4)
+        ax.imshow(matplotlib.image.imread(io.BytesIO(draw_network(
+            net, "png", reactions=keep or None, title="")), format="png"))
+        ax.set_axis_off()
+        corr = catalyst_correlation(states)
+        ax.set_title(f"fitness {fitness[0]:.1f}, corr(A, C) {corr:+.2f}", fontsize=9)
+        print(f"{name}: fitness {fitness[0]:.2f} on key 0, corr(A, C) {corr:+.3f}")
+        for d in describe(genome, spec):
+            if d["k"] and not d["fixed"]:
+                print(f"  {d['reaction']:<28} {d['k']:.2g}")
+    fig.tight_layout()
+    fig.savefig(_png("runs_exp2"))
 
 
 def network_figure(genome: Genome, spec: NetworkSpec, label: str) -> None:
@@ -302,14 +362,18 @@ def make_figures(root: Path, experiments: tuple[int, ...] = (1, 2)) -> None:
             best = load_state(folder / "state.npz")[1].max(axis=1)
             print(f"{folder.name}: {slope_or_jumps(best)}")
     spec = table2_spec()
-    hand = pattern_figure(table2_genome(spec), spec, "pattern_table2", "hand-made (Table 2)")
-    print(f"hand-made Table-2 network: fitness {hand:.2f}")
+    hand, corr = pattern_figure(table2_genome(spec), spec, "pattern_table2",
+                                "hand-made (Table 2)")
+    print(f"hand-made Table-2 network: fitness {hand:.2f}, corr(A, C) {corr:+.3f}")
+    if 2 in experiments:
+        runs_figure(root)
     for number in experiments:
         genome, fit, folder = best_genome(root, number)
         spec = experiment(number)[0]
-        again = pattern_figure(genome, spec, f"pattern_exp{number}",
-                               f"Experiment {number}, best ({_name(root / folder)})")
-        print(f"experiment {number}: best {fit:.2f} in {folder} ({again:.2f} on key 0)")
+        again, corr = pattern_figure(genome, spec, f"pattern_exp{number}",
+                                     f"Experiment {number}, best ({_name(root / folder)})")
+        print(f"experiment {number}: best {fit:.2f} in {folder} ({again:.2f} on key 0, "
+              f"corr(A, C) {corr:+.3f})")
         for r in describe(genome, spec):
             print(f"  {r['reaction']:<28} {r['k']:.2g}{'  (imposed)' if r['fixed'] else ''}")
         if number == 2:
