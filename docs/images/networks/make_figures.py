@@ -110,8 +110,7 @@ def one_run(out: Path, number: int, seed: int, draw: str = "decade") -> str:
         print(f"{out.name}: {line}", flush=True)
 
     run(spec, template, out, ops=ops, ev=evaluation(number, draw), seed=seed, resume=done > 0,
-        log=log,
-        **BUDGET)
+        log=log, **BUDGET)
     return out.name
 
 
@@ -228,12 +227,17 @@ def best_genome(root: Path, number: int) -> tuple[Genome, float, str]:
     """The fittest genome of the experiment's runs' last generations."""
     best = None
     for folder in finished(root, number):
-        pop, history, _, _ = load_state(folder / "state.npz")
-        i = int(np.argmax(history[-1]))
-        if best is None or history[-1][i] > best[1]:
-            best = (Genome(*(np.asarray(x)[i] for x in pop)), float(history[-1][i]),
-                    folder.name)
+        genome, fitness = _fittest(folder)
+        if best is None or fitness > best[1]:
+            best = (genome, fitness, folder.name)
     return best
+
+
+def _fittest(folder: Path) -> tuple[Genome, float]:
+    """The fittest genome of a run's last saved generation, and its fitness there."""
+    pop, history, _, _ = load_state(folder / "state.npz")
+    i = int(np.argmax(history[-1]))
+    return Genome(*(np.asarray(x)[i] for x in pop)), float(history[-1][i])
 
 
 def pattern_figure(genome: Genome, spec: NetworkSpec, name: str, title: str
@@ -293,12 +297,8 @@ def runs_figure(root: Path) -> None:
     A/B/C heat maps of its last generation's fittest genome (key-0 start, last round) and the
     drawing of its evolvable reactions."""
     spec = experiment(2)[0]
-    rows = []
-    for folder in finished(root, 2):
-        pop, history, _, _ = load_state(folder / "state.npz")
-        i = int(np.argmax(history[-1]))
-        if history[-1][i] > 256:
-            rows.append((folder.name, Genome(*(np.asarray(x)[i] for x in pop))))
+    rows = [(folder.name, genome) for folder in finished(root, 2)
+            for genome, fitness in [_fittest(folder)] if fitness > 256]
     if not rows:
         return
     fig = Figure(figsize=(13.0, 2.9 * len(rows)), dpi=100)
@@ -307,12 +307,8 @@ def runs_figure(root: Path) -> None:
         for j, species in enumerate(spec.species):
             _field_panel(fig, fig.add_subplot(len(rows), 4, 4 * r + j + 1), states[0, j],
                          f"{name}: {species}" if j == 0 else species)
-        net = genome_network(genome, spec, name=name)
-        keep = [k for k, rid in enumerate(net.reaction_ids)
-                if not rid.startswith(("inflow_", "decay_"))]
         ax = fig.add_subplot(len(rows), 4, 4 * r + 4)
-        ax.imshow(matplotlib.image.imread(io.BytesIO(draw_network(
-            net, "png", reactions=keep or None, title="")), format="png"))
+        ax.imshow(_network_image(genome, spec, name))
         ax.set_axis_off()
         corr = catalyst_correlation(states)
         ax.set_title(f"fitness {fitness[0]:.1f}, corr(A, C) {corr:+.2f}", fontsize=9)
@@ -324,13 +320,19 @@ def runs_figure(root: Path) -> None:
     fig.savefig(_png("runs_exp2"))
 
 
+def _network_image(genome: Genome, spec: NetworkSpec, label: str) -> np.ndarray:
+    """The Fig. 7-style drawing of ``genome``'s evolvable reactions (static inflow and decay
+    left out), as an RGBA image."""
+    net = genome_network(genome, spec, name=label)
+    keep = [j for j, r in enumerate(net.reaction_ids) if not r.startswith(("inflow_", "decay_"))]
+    png = draw_network(net, "png", reactions=keep or None, title="")
+    return matplotlib.image.imread(io.BytesIO(png), format="png")
+
+
 def network_figure(genome: Genome, spec: NetworkSpec, label: str) -> None:
     """The best Experiment-2 network: its reaction table next to its Fig. 7-style drawing."""
     rows = [(r["reaction"].replace("->", "→"), f"{r['k']:.2g}")
             for r in describe(genome, spec) if r["k"] or not r["fixed"]]
-    net = genome_network(genome, spec, name=label)
-    keep = [j for j, r in enumerate(net.reaction_ids) if not r.startswith(("inflow_", "decay_"))]
-    png = draw_network(net, "png", reactions=keep or None, title="")
     fig = Figure(figsize=(11.0, 5.2), dpi=120)
     left = fig.add_axes((0.03, 0.05, 0.38, 0.85))
     left.set_axis_off()
@@ -340,7 +342,7 @@ def network_figure(genome: Genome, spec: NetworkSpec, label: str) -> None:
     table.set_fontsize(10)
     table.scale(1.0, 1.5)
     right = fig.add_axes((0.44, 0.0, 0.56, 0.95))
-    right.imshow(matplotlib.image.imread(io.BytesIO(png), format="png"))
+    right.imshow(_network_image(genome, spec, label))
     right.set_axis_off()
     fig.suptitle(f"best network of Experiment 2 ({label}); static inflow/decay in the table "
                  "only", fontsize=10)
