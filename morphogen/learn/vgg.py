@@ -180,9 +180,9 @@ class VGGFeatures:
 
     def init(self) -> dict[str, list]:
         convs = [(jnp.asarray(k), jnp.asarray(b)) for k, b in load_vgg_weights(self.path)]
-        rng = np.random.default_rng(SLICE_SEED)
         dirs = []
         if self.sliced:
+            rng = np.random.default_rng(SLICE_SEED)
             for i in SLICE_LAYERS:
                 c = convs[i][0].shape[3]
                 d = rng.standard_normal((c, c)).astype(np.float32)
