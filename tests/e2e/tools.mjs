@@ -218,20 +218,24 @@ export async function openRunFile(page, out) {
   data.config.cmap = 'magma';
   writeFileSync(join(out, 'run-open.json'), JSON.stringify(data));
   await page.setInputFiles('#ex-open', join(out, 'run-open.json'));
+  // the load finished, not only its state shown: its last step clears the error box, which
+  // would wipe the refusal below if it came after it
   await page.waitForFunction(() => window.morphogenExplore.state?.params?.F === 0.05
-    && window.morphogenExplore.state.cmap === 'magma', null, { timeout: 60000 });
+    && window.morphogenExplore.state.cmap === 'magma' && !window.morphogenExplore.loading, null,
+  { timeout: 60000 });
   const s = await x(page, () => window.morphogenExplore.state);
   // a file that is not a run file is refused in one line
   writeFileSync(join(out, 'not-a-run.json'), JSON.stringify({ hello: 1 }));
   await page.setInputFiles('#ex-open', join(out, 'not-a-run.json'));
   // this file's refusal (it names the file), not an earlier message still in the box: under
   // load a slow-frame notice can be showing, and the next frame clears it
-  await page.waitForFunction(() => {
+  // (the text is read as the wait sees it, not again afterwards)
+  const shown = await page.waitForFunction(() => {
     const e = document.getElementById('ex-error');
-    return e && !e.hidden && e.textContent.startsWith('not-a-run.json');
+    return e && !e.hidden && e.textContent.startsWith('not-a-run.json') && e.textContent;
   }, null, { timeout: 60000 });
   return { opened: { F: s.params.F, cmap: s.cmap, size: s.size, height: s.height, scheme: s.scheme,
-    model: s.model }, openError: await page.textContent('#ex-error') };
+    model: s.model }, openError: await shown.jsonValue() };
 }
 
 // open the Evolve page, set its selects and number fields, and start a run
