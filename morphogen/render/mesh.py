@@ -1,7 +1,8 @@
-"""Coloured triangle meshes to images, headless (matplotlib's Agg canvas, no display, no GPU).
+"""Coloured triangle meshes to images, headless (no display, no GPU).
 
 Per-vertex colours are averaged onto faces and shaded with a two-sided Lambert term from a
-light at the camera, then drawn by matplotlib's 3D projection (painter's algorithm). This is a
+light at the camera, then projected orthographically and drawn with a depth buffer
+(:func:`morphogen.render.raster.rasterise`). This is a
 preview renderer for checking patterns, in the spirit of Ringham et al. §3.5, not a replacement
 for a physically based renderer.
 """
@@ -11,12 +12,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import to_rgb
-from matplotlib.figure import Figure
-from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from morphogen.errors import MorphogenError
+from morphogen.render.raster import rasterise
 
 VIEWS: dict[str, tuple[float, float]] = {
     "top": (90.0, -90.0),
@@ -44,9 +43,14 @@ def parse_view(view: str | Sequence[float]) -> tuple[float, float]:
     return float(elev), float(azim)
 
 
-def _camera_direction(elev: float, azim: float) -> np.ndarray:
+def _camera(elev: float, azim: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The picture's right and up directions and the direction towards the viewer, for a
+    camera at elevation ``elev`` and azimuth ``azim`` (matplotlib's convention: ``top`` looks
+    down the z axis with x to the right and y up)."""
     e, a = np.radians(elev), np.radians(azim)
-    return np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+    towards = np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+    right = np.array([-np.sin(a), np.cos(a), 0.0])
+    return right, np.cross(towards, right), towards
 
 
 def render_mesh(
@@ -78,31 +82,22 @@ def render_mesh(
     if colours.shape != (len(vertices), 3):
         raise MorphogenError(f"need one RGB colour per vertex, got shape {colours.shape}")
     rgb = colours.astype(np.float64) / (255.0 if colours.dtype == np.uint8 else 1.0)
-    elev, azim = parse_view(view)
+    right, up, towards = _camera(*parse_view(view))
     tris = vertices[faces]
     normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
-    light = np.abs(normals @ _camera_direction(elev, azim))
+    light = np.abs(normals @ towards)
     face_rgb = rgb[faces].mean(axis=1) * ((1.0 - shade) + shade * light)[:, None]
+    # orthographic: the mesh's projection fills the picture less a margin, centred
     width, height = size
-    dpi = 100
-    fig = Figure(figsize=(width / dpi, height / dpi), dpi=dpi, facecolor=background)
-    canvas = FigureCanvasAgg(fig)
-    ax = fig.add_axes((0, 0, 1, 1), projection="3d", facecolor=background)
-    face_rgb = np.clip(face_rgb, 0.0, 1.0)
-    # edges in the face colour close the hairline seams antialiasing leaves between triangles
-    ax.add_collection3d(Poly3DCollection(tris, facecolors=face_rgb, edgecolors=face_rgb,
-                                         linewidths=0.3))
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    centre, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1e-12)
-    for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre, strict=True):
-        setter(c - half, c + half)
-    ax.set_box_aspect((1, 1, 1), zoom=1.35)
-    ax.set_proj_type("ortho")
-    ax.view_init(elev=elev, azim=azim)
-    ax.set_axis_off()
-    canvas.draw()
-    image = np.asarray(canvas.buffer_rgba())[..., :3].copy()
+    screen = np.stack([vertices @ right, -(vertices @ up)], axis=-1)
+    lo, hi = screen.min(axis=0), screen.max(axis=0)
+    margin = 8
+    scale = min((width - 2 * margin) / max(hi[0] - lo[0], 1e-12),
+                (height - 2 * margin) / max(hi[1] - lo[1], 1e-12))
+    pixels = (screen - (lo + hi) / 2) * scale + np.array([width, height]) / 2
+    image = rasterise(pixels[faces], (vertices @ towards)[faces], np.clip(face_rgb, 0.0, 1.0),
+                      (width, height), np.array(to_rgb(background)))
     return _crop(image, background)
 
 
