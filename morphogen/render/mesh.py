@@ -26,6 +26,10 @@ VIEWS: dict[str, tuple[float, float]] = {
 }
 """Named viewpoints: (elevation, azimuth) in degrees, matplotlib's convention."""
 
+MARGIN = 8
+"""Pixels of background kept around the drawing: the mesh is fitted inside it, and the
+picture cropped to it."""
+
 
 def parse_view(view: str | Sequence[float]) -> tuple[float, float]:
     """A view name from :data:`VIEWS`, ``"ELEV,AZIM"`` or an ``(elev, azim)`` pair."""
@@ -92,16 +96,15 @@ def render_mesh(
     width, height = size
     screen = np.stack([vertices @ right, -(vertices @ up)], axis=-1)
     lo, hi = screen.min(axis=0), screen.max(axis=0)
-    margin = 8
-    scale = min((width - 2 * margin) / max(hi[0] - lo[0], 1e-12),
-                (height - 2 * margin) / max(hi[1] - lo[1], 1e-12))
+    scale = min((width - 2 * MARGIN) / max(hi[0] - lo[0], 1e-12),
+                (height - 2 * MARGIN) / max(hi[1] - lo[1], 1e-12))
     pixels = (screen - (lo + hi) / 2) * scale + np.array([width, height]) / 2
     image = rasterise(pixels[faces], (vertices @ towards)[faces], np.clip(face_rgb, 0.0, 1.0),
                       (width, height), np.array(to_rgb(background)))
     return _crop(image, background)
 
 
-def _crop(image: np.ndarray, background: str, margin: int = 8) -> np.ndarray:
+def _crop(image: np.ndarray, background: str, margin: int = MARGIN) -> np.ndarray:
     """Trim uniform background around the drawing, keeping a small margin."""
     bg = np.rint(np.array(to_rgb(background)) * 255).astype(np.uint8)
     mask = np.any(image != bg, axis=2)

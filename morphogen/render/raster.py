@@ -63,8 +63,8 @@ def rasterise(
     keep = np.flatnonzero(np.all(n > 0, axis=1) & (np.abs(area) > 1e-12))
     # λ_k at the centre of pixel lo + (dx, dy) is base_k + slope_x,k dx + slope_y,k dy: E_k is
     # affine, and measured from lo the numbers stay small enough for float32
-    first = lo[keep] + 0.5
-    edge_a, edge_b = xy[keep][:, [1, 2, 0]], xy[keep][:, [2, 0, 1]]  # edge k: from a_k to b_k
+    first, kept = lo[keep] + 0.5, xy[keep]
+    edge_a, edge_b = kept[:, [1, 2, 0]], kept[:, [2, 0, 1]]  # edge k: from a_k to b_k
     along = (edge_b - edge_a) / area[keep, None, None]
     base = _cross(along, first[:, None] - edge_a).astype(np.float32)
     slope_x, slope_y = (-along[..., 1]).astype(np.float32), along[..., 0].astype(np.float32)
